@@ -1,0 +1,28 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Faces & Hands: communicative virtual humans for Blender (after I. Albrecht, *Faces and Hands*, 2005).
+
+This file is the extension entry point and only registers ``operators/`` and ``panels/``, through
+``operators.registry`` (the one place that registers and unregisters anything). The science lives in
+the Blender-free engine ``faces_hands_addon/``.
+"""
+from . import operators, panels
+from .operators import cli, registry
+
+_registered = False
+
+
+def register():
+    global _registered
+    registry.register_all(
+        classes=panels.PROPERTY_CLASSES + operators.CLASSES + panels.CLASSES,
+        properties=panels.PROPERTIES,
+        handlers=operators.HANDLERS,
+        cli_commands=[("faces_hands", cli.blender_cli_entry)],
+    )
+    _registered = True
+
+
+def unregister():
+    global _registered
+    registry.unregister_all()
+    _registered = False

@@ -1,0 +1,9 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Blender operators and the thin helpers that convert between Blender data and the engine.
+
+``CLASSES`` and ``HANDLERS`` are what the extension root registers through ``registry``.
+"""
+from . import ops_info
+
+CLASSES = [*ops_info.CLASSES]
+HANDLERS = []

@@ -1,0 +1,101 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The ``faces_hands`` command line: ``blender -b -c faces_hands <subcommand> ...`` and ``./fh``.
+
+Both call :func:`main` with the arguments after the command name. Every subcommand lives in a
+module that exposes ``NAME``, ``HELP``, ``add_arguments(parser)`` and ``run(args, progress) -> int``.
+Bad input exits non-zero with one line ``faces_hands: error: ...`` (no traceback) and writes nothing;
+``--debug`` shows the traceback of unexpected errors.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+import traceback
+
+from ..faces_hands_addon.errors import UserError
+
+
+class CommandLineError(Exception):
+    """Raised instead of argparse's print-usage-and-exit, so the message stays one line."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # noqa: D401 - argparse API
+        raise CommandLineError(f"{message} (see: {self.prog} --help)")
+
+    def exit(self, status=0, message=None):
+        if message:
+            print(message, file=sys.stderr, end="")
+        raise SystemExit(status)
+
+
+class Progress:
+    """Prints ``[ 42%] message`` lines on stderr for long work (the CLI's progress bar)."""
+
+    def __init__(self, quiet: bool = False):
+        self.quiet = quiet
+        self._last = -1.0
+
+    def __call__(self, fraction: float, message: str = "") -> None:
+        if self.quiet:
+            return
+        percent = max(0.0, min(1.0, fraction)) * 100.0
+        if percent - self._last >= 5.0 or percent >= 100.0 or message:
+            print(f"[{percent:3.0f}%] {message}", file=sys.stderr, flush=True)
+            self._last = percent
+
+
+def _subcommand_modules():
+    from . import cli_commands
+    return cli_commands.MODULES
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="faces_hands", description=(
+        "Faces & Hands batch tools: build muscle face rigs, bake shape keys, speak text, render "
+        "contact sheets. Run '<subcommand> --help' for details."))
+    parser.add_argument("--debug", action="store_true", help="show tracebacks of unexpected errors")
+    parser.add_argument("--quiet", action="store_true", help="no progress output")
+    subparsers = parser.add_subparsers(dest="command", metavar="<subcommand>", parser_class=_Parser)
+    for module in _subcommand_modules():
+        sub = subparsers.add_parser(module.NAME, help=module.HELP, description=module.HELP)
+        module.add_arguments(sub)
+        sub.set_defaults(_run=module.run)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run one subcommand; returns the process exit code."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    parser = build_parser()
+    debug = "--debug" in argv
+    try:
+        args = parser.parse_args(argv)
+        if args.command is None:
+            parser.print_help()
+            return 2
+        started = time.perf_counter()
+        code = args._run(args, Progress(quiet=args.quiet))
+        if not args.quiet:
+            print(f"done in {time.perf_counter() - started:.1f} s", file=sys.stderr)
+        return int(code or 0)
+    except (UserError, CommandLineError) as error:
+        print(f"faces_hands: error: {error}", file=sys.stderr)
+        return 2 if isinstance(error, CommandLineError) else 1
+    except KeyboardInterrupt:
+        print("faces_hands: interrupted; nothing was written", file=sys.stderr)
+        return 130
+    except SystemExit as exit_request:
+        return int(exit_request.code or 0)
+    except Exception as error:  # an unexpected error is a bug: say so in one line
+        if debug:
+            traceback.print_exc()
+        print(f"faces_hands: internal error: {type(error).__name__}: {error} "
+              f"(run with --debug for the traceback)", file=sys.stderr)
+        return 3
+
+
+def blender_cli_entry(argv):
+    """``bpy.utils.register_cli_command`` callback: ``blender -b -c faces_hands ...``."""
+    return main(list(argv))

@@ -1,0 +1,11 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The N-panel UI (sidebar tab "Faces & Hands"). Panels only draw; properties live in properties.py.
+
+The extension root registers ``PROPERTY_CLASSES``, ``PROPERTIES`` and ``CLASSES`` through
+``operators.registry``.
+"""
+from . import main_panel, properties
+
+PROPERTY_CLASSES = [*properties.CLASSES]
+PROPERTIES = [*properties.PROPERTIES]
+CLASSES = [*main_panel.CLASSES]

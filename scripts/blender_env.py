@@ -1,0 +1,97 @@
+"""Run the *installed* extension inside Blender's Python module (the ``bpy`` wheel), isolated.
+
+Shared by ``./fh``, ``make install``, ``make demo`` and the test harness so all of them load the
+extension exactly the way a Blender user gets it: the built zip, installed into a user folder of its
+own (never the real Blender config), then enabled.
+
+Blender reads ``BLENDER_USER_RESOURCES`` once, when ``bpy`` is first imported, so :func:`use_user_dir`
+must run before anything imports ``bpy``.
+"""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+EXTENSION_ID = "faces_hands"
+REPO = "user_default"
+MODULE = f"bl_ext.{REPO}.{EXTENSION_ID}"
+
+
+def manifest_version() -> str:
+    import tomllib
+    return tomllib.loads((ROOT / "blender_manifest.toml").read_text())["version"]
+
+
+def built_zip() -> Path:
+    return ROOT / "dist" / f"{EXTENSION_ID}-{manifest_version()}.zip"
+
+
+def use_user_dir(user_dir: Path) -> None:
+    """Point Blender's user resources at ``user_dir``; must precede ``import bpy``."""
+    if "bpy" in sys.modules:
+        current = os.environ.get("BLENDER_USER_RESOURCES")
+        if current and Path(current) == Path(user_dir):
+            return
+        raise RuntimeError("bpy is already imported; the user folder can no longer change")
+    user_dir.mkdir(parents=True, exist_ok=True)
+    os.environ["BLENDER_USER_RESOURCES"] = str(user_dir)
+
+
+def extension_dir(user_dir: Path) -> Path:
+    return user_dir / "extensions" / REPO / EXTENSION_ID
+
+
+def wheel_site_packages(user_dir: Path) -> Path:
+    major, minor = sys.version_info[:2]
+    return user_dir / "extensions" / ".local" / "lib" / f"python{major}.{minor}" / "site-packages"
+
+
+def _quiet_bpy():
+    import bpy  # noqa: F401  (first import prints Blender's start-up lines)
+    return bpy
+
+
+def install(zip_path: Path, user_dir: Path) -> None:
+    """Install ``zip_path`` into ``user_dir`` (replacing an older install) and enable it."""
+    use_user_dir(user_dir)
+    bpy = _quiet_bpy()
+    result = bpy.ops.extensions.package_install_files(
+        filepath=str(zip_path), repo=REPO, enable_on_install=True, overwrite=True)
+    if result != {"FINISHED"}:
+        raise RuntimeError(f"installing {zip_path} failed: {result}")
+    stamp = {"zip": str(zip_path), "mtime": zip_path.stat().st_mtime, "size": zip_path.stat().st_size}
+    (user_dir / "faces_hands_install.json").write_text(json.dumps(stamp))
+    bpy.ops.wm.save_userpref()
+
+
+def is_current(zip_path: Path, user_dir: Path) -> bool:
+    stamp_path = user_dir / "faces_hands_install.json"
+    if not (stamp_path.exists() and zip_path.exists() and extension_dir(user_dir).exists()):
+        return False
+    stamp = json.loads(stamp_path.read_text())
+    return stamp.get("mtime") == zip_path.stat().st_mtime and stamp.get("size") == zip_path.stat().st_size
+
+
+def enable(user_dir: Path):
+    """Import ``bpy`` against ``user_dir`` and make sure the installed extension is enabled."""
+    use_user_dir(user_dir)
+    bpy = _quiet_bpy()
+    import addon_utils
+    if MODULE not in sys.modules or not getattr(sys.modules[MODULE], "_registered", False):
+        addon_utils.enable(MODULE, default_set=True, handle_error=_raise)
+    return sys.modules[MODULE]
+
+
+def _raise(exc):
+    raise exc
+
+
+def fresh_user_dir(user_dir: Path) -> Path:
+    if user_dir.exists():
+        shutil.rmtree(user_dir)
+    user_dir.mkdir(parents=True)
+    return user_dir
