@@ -12,6 +12,7 @@ else
 VENV := .venv-bpy$(BPY)
 endif
 PY := $(VENV)/bin/python
+export BPY
 USER_DIR := .blender-user$(if $(filter $(DEFAULT_BPY),$(BPY)),,-bpy$(BPY))
 VERSION := $(shell sed -n 's/^version = "\(.*\)"/\1/p' blender_manifest.toml)
 ZIP := dist/faces_hands-$(VERSION).zip
