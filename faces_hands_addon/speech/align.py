@@ -1,0 +1,324 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Recorded audio -> :class:`Utterance`: forced alignment with pocketsphinx 5 (en-us model + CMU dict).
+
+The thesis drives lip sync from "phonemes ... and their durations" (3.1.3); for a recording they are
+measured: pocketsphinx aligns the transcript word by word (first pass, which also places optional
+silences), then phone by phone (second pass, ``set_alignment``), exactly as its ``pocketsphinx align
+-phone_align yes`` command does (``bestpath`` off). Frames are 10 ms.
+
+* Words missing from the CMU dictionary get espeak-ng's pronunciation (IPA -> unified phones ->
+  ARPAbet) and are added to the decoder's dictionary; they are listed in ``Utterance.warnings``.
+  For a non-English ``language`` every word is pronounced by espeak-ng in that language (the acoustic
+  model stays English, which the warnings say).
+* Lexical stress (for accented syllables) comes from espeak-ng's pronunciation of each word when its
+  vowels match the aligned ones, else the longest vowel of a content word carries the accent.
+* Without a transcript, phones are recognised with pocketsphinx's phone loop (``allphone``) and the
+  result has no words; a warning says that this is less accurate.
+* Corrupt, zero-length or too short audio raise :class:`UserError`, and so does a transcript that
+  does not match the audio: either no alignment path reaches the end of the audio, or (when the
+  search needed wider beams, as synthetic voices do) the forced path scores far below a free phone
+  loop on the same audio. A transcript with a word or two wrong still aligns (the rest is right).
+"""
+from __future__ import annotations
+
+import os
+import re
+
+import numpy as np
+
+from ..errors import UserError
+from .audio import as_mono, load_audio, to_analysis_rate, to_int16
+from .emoticons import extract_emoticons
+from .phonemes import SILENCE, from_arpabet, is_vowel, to_arpabet
+from .pitch import track_pitch
+from .utterance import Phone, Utterance, WordDraft, assemble_utterance, token_spans
+
+FRAME = 0.01  # pocketsphinx frame length (s)
+MIN_DURATION = 0.1
+PHRASE_PAUSE = 0.15  # a silence this long inside a sentence ends an intonational phrase
+_SENTENCE_END = re.compile(r"[.?!？！…]")
+_PHRASE_END = re.compile(r"[,;:—–]")
+
+
+def _pocketsphinx():
+    try:
+        import pocketsphinx  # noqa: PLC0415 - optional wheel, imported lazily
+    except Exception as exc:
+        raise UserError("audio alignment needs the pocketsphinx module; install the add-on with its "
+                        f"bundled wheels ({exc})") from None
+    return pocketsphinx
+
+
+def _decode(decoder, pcm: bytes) -> None:
+    decoder.start_utt()
+    decoder.process_raw(pcm, full_utt=True)
+    decoder.end_utt()
+
+
+def _normalise(word: str) -> str:
+    return word.lower().replace("’", "'").replace("‘", "'")
+
+
+def _load(audio, sample_rate) -> tuple[np.ndarray, int]:
+    if isinstance(audio, (str, os.PathLike)):
+        return load_audio(audio)
+    if sample_rate is None:
+        raise UserError("give the sample rate of the audio samples")
+    samples = as_mono(audio)
+    if samples.size == 0:
+        raise UserError("the audio has no samples (zero length)")
+    if not np.all(np.isfinite(samples)):
+        raise UserError("the audio contains invalid (NaN/inf) samples")
+    return samples, int(sample_rate)
+
+
+def align_audio(audio, transcript: str | None = None, *, sample_rate: int | None = None,
+                language: str = "en-us") -> Utterance:
+    """Time the phones (and, with a transcript, the words) of recorded speech.
+
+    ``audio`` is a file path (WAV/FLAC/OGG) or a sample array with ``sample_rate``. The transcript
+    may contain emoticons (Table 4.1), which become emotion tags like in :func:`synthesize`."""
+    samples, rate = _load(audio, sample_rate)
+    if len(samples) / rate < MIN_DURATION:
+        raise UserError(f"the audio is too short ({len(samples) / rate * 1000:.0f} ms) to align; "
+                        f"give at least {MIN_DURATION * 1000:.0f} ms")
+    pcm = to_int16(to_analysis_rate(samples, rate)).tobytes()
+    duration = len(samples) / rate
+    pitch = track_pitch(samples, rate)
+    ps = _pocketsphinx()
+    text = transcript if isinstance(transcript, str) else ""
+    cleaned, tags = extract_emoticons(text)
+    if not any(ch.isalnum() for ch in cleaned):
+        return _recognise_phones(ps, pcm, samples, rate, duration, pitch, text, tags, language)
+    return _force_align(ps, pcm, samples, rate, duration, pitch, text, cleaned, tags, language)
+
+
+def _recognise_phones(ps, pcm, samples, rate, duration, pitch, text, tags, language) -> Utterance:
+    decoder = ps.Decoder(allphone=ps.get_model_path("en-us/en-us-phone.lm.bin"), lm=None,
+                         backtrace=False, beam=1e-20, pbeam=1e-20, loglevel="FATAL")
+    _decode(decoder, pcm)
+    raw = [(seg.word, seg.start_frame * FRAME, (seg.end_frame + 1) * FRAME) for seg in decoder.seg()]
+    phones, _ = _tile([(name, a, b, 0, -1) for name, a, b in raw], duration)
+    warnings = ["no transcript: phones were recognised without words, which is less accurate; "
+                "give the transcript for better lip sync"]
+    return assemble_utterance(text=text, language=language, samples=samples, sample_rate=rate,
+                              phones=phones, words=[], emotions=tags, pitch=pitch,
+                              source="phone_recognition", warnings=warnings)
+
+
+def _tile(entries, duration: float) -> tuple[list[Phone], list[int]]:
+    """Phones from ``(ARPAbet, start, end, stress, token)``: pauses merged, gaps filled with
+    silence, the last phone stretched to the end of the audio. Returns the phones and, per phone,
+    its token index (-1 for pauses)."""
+    phones: list[Phone] = []
+    tokens: list[int] = []
+    cursor = 0.0
+    for name, start, end, stress, token in entries:
+        start, end = max(start, cursor), min(max(end, start), duration)
+        if end <= start:
+            continue
+        try:
+            units = from_arpabet(name)
+        except UserError:  # a filler or noise model pocketsphinx may report
+            units = (SILENCE,)
+        if start > cursor + 1e-9:
+            phones.append(Phone("SIL", SILENCE, cursor, start - cursor))
+            tokens.append(-1)
+        for j, unit in enumerate(units):
+            a = start + (end - start) * j / len(units)
+            b = start + (end - start) * (j + 1) / len(units)
+            symbol = name.split("(")[0].upper().rstrip("012")
+            if unit == SILENCE and phones and phones[-1].phone == SILENCE:
+                last = phones[-1]
+                phones[-1] = Phone(last.symbol, SILENCE, last.start, b - last.start)
+                continue
+            phones.append(Phone(symbol, unit, a, b - a, stress if j == 0 else 0))
+            tokens.append(-1 if unit == SILENCE else token)
+        cursor = end
+    if cursor < duration - 1e-9:
+        if phones and phones[-1].phone == SILENCE:
+            last = phones[-1]
+            phones[-1] = Phone(last.symbol, SILENCE, last.start, duration - last.start)
+        else:
+            phones.append(Phone("SIL", SILENCE, cursor, duration - cursor))
+            tokens.append(-1)
+    return phones, tokens
+
+
+# default search beams first (identical to `pocketsphinx align`), then wider ones: synthetic or
+# unusual voices can fall out of the default beams before the end of the utterance
+_BEAMS = ({}, {"beam": 1e-80, "wbeam": 1e-60, "pbeam": 1e-80}, {"beam": 1e-300, "wbeam": 1e-300, "pbeam": 1e-300})
+
+
+MISMATCH_LIMIT = -45.0      # per-frame log score below a free phone loop that means "wrong words"
+UNCOVERED_LIMIT = 0.3       # share of loud frames the alignment may leave to silence/fillers
+
+
+def _loud_frames(pcm: bytes, frames: int) -> np.ndarray:
+    """Per 10 ms frame: is it within 25 dB of the loudest frames (speech rather than a pause)?"""
+    x = np.frombuffer(pcm, dtype=np.int16).astype(np.float64)
+    hop = 160
+    n = min(frames, len(x) // hop)
+    energy = (x[:n * hop].reshape(n, hop) ** 2).mean(axis=1) + 1e-3
+    level = 10 * np.log10(energy)
+    loud = level > np.percentile(level, 95) - 25.0
+    return np.concatenate([loud, np.zeros(max(frames - n, 0), dtype=bool)])
+
+
+def _fits_like_speech(ps, decoder, pcm: bytes) -> tuple[bool, str]:
+    """Is a forced alignment plausible? Two checks against "wrong words":
+
+    * coverage -- the words must cover the loud (speech) frames; a short wrong transcript is
+      forced through by giving most of the speech to optional silences and fillers;
+    * fit -- the acoustic score per frame must be within ``MISMATCH_LIMIT`` of a free phone loop on
+      the same audio (LibriVox clips: right transcript -11..-15, one wrong word -16..-25, unrelated
+      text -53..-75; espeak-ng voices with the right text -6..-36)."""
+    logmath = decoder.get_logmath()
+    frames = max(decoder.n_frames(), 1)
+    loud = _loud_frames(pcm, frames)
+    uncovered = np.zeros(frames, dtype=bool)
+    forced = 0.0
+    for seg in decoder.seg():
+        forced += logmath.log(max(seg.ascore, 1e-300))
+        name = seg.word.split("(")[0]
+        if name.startswith(("<", "[", "+")):
+            uncovered[max(seg.start_frame, 0):seg.end_frame + 1] = True
+    share = (loud & uncovered).sum() / max(loud.sum(), 1)
+    if share > UNCOVERED_LIMIT:
+        return False, f"{share:.0%} of the speech is not covered by the transcript's words"
+    loop = ps.Decoder(allphone=ps.get_model_path("en-us/en-us-phone.lm.bin"), lm=None,
+                      backtrace=False, beam=1e-20, pbeam=1e-20, loglevel="FATAL")
+    _decode(loop, pcm)
+    free = sum(logmath.log(max(seg.ascore, 1e-300)) for seg in loop.seg())
+    if (forced - free) / frames < MISMATCH_LIMIT:
+        return False, "the words fit the sounds far worse than free phone recognition does"
+    return True, ""
+
+
+def _decoder_with_words(ps, beams: dict, words: list[tuple[str, str]]):
+    decoder = ps.Decoder(lm=None, bestpath=False, loglevel="FATAL", **beams)
+    for word, phones in words:
+        decoder.add_word(word, phones, True)
+    return decoder
+
+
+def _force_align(ps, pcm, samples, rate, duration, pitch, text, cleaned, tags, language) -> Utterance:
+    decoder = ps.Decoder(lm=None, bestpath=False, loglevel="FATAL")
+    english = language.lower().startswith("en")
+    voice = language if language else "en-us"
+    warnings: list[str] = []
+    if not english:
+        warnings.append(f"the acoustic model is English; {language!r} words were pronounced by "
+                        "espeak-ng and mapped to English phones, so timing is less accurate")
+    spans = [s for s in token_spans(cleaned) if any(ch.isalnum() for ch in cleaned[s[0]:s[1]])]
+    spoken = _espeak_pronunciations(cleaned, "en-us" if english else voice)
+    keys: list[str] = []
+    added: list[str] = []
+    decoder_words: list[tuple[str, str]] = []
+    for k, (a, b) in enumerate(spans):
+        word = _normalise(cleaned[a:b])
+        if english and decoder.lookup_word(word) is not None:
+            keys.append(word)
+            continue
+        arpabet = to_arpabet([p for p, _ in spoken.get((a, b), [])])
+        if not arpabet:
+            raise UserError(f"cannot find a pronunciation for {cleaned[a:b]!r}; spell it out in the transcript")
+        key = word if english and word.isascii() and not any(c.isspace() for c in word) else f"fh{k}_w"
+        decoder.add_word(key, " ".join(arpabet), True)
+        decoder_words.append((key, " ".join(arpabet)))
+        added.append(cleaned[a:b])
+        keys.append(key)
+    if added and english:
+        warnings.append("not in the dictionary, pronounced by espeak-ng: " + ", ".join(added))
+
+    reason = "no alignment reaches the end of the audio"
+    for beams in _BEAMS:
+        if beams:
+            decoder = _decoder_with_words(ps, beams, decoder_words)
+        try:
+            decoder.set_align_text(" ".join(keys))
+        except RuntimeError as exc:
+            raise UserError(f"pocketsphinx cannot align this transcript ({exc})") from None
+        _decode(decoder, pcm)
+        if decoder.hyp() is not None:
+            fits, reason = _fits_like_speech(ps, decoder, pcm)
+            if fits:
+                break
+            raise UserError(f"the transcript does not match the audio ({reason}); check the words, "
+                            "or leave the transcript empty for phone recognition")
+    else:
+        raise UserError(f"the transcript does not match the audio ({reason}); check the words, "
+                        "or leave the transcript empty for phone recognition")
+    decoder.set_alignment()
+    _decode(decoder, pcm)
+    alignment = decoder.get_alignment()
+    if alignment is None:
+        raise UserError("the transcript does not match the audio (phone alignment failed)")
+
+    entries = []
+    token = 0
+    for entry in alignment:
+        name = entry.name.split("(")[0]
+        if name in ("<s>", "</s>", "<sil>") or token >= len(spans):
+            for phone_entry in entry:
+                entries.append(("SIL", phone_entry.start * FRAME,
+                                (phone_entry.start + phone_entry.duration) * FRAME, 0, -1))
+            continue
+        for phone_entry in entry:
+            entries.append((phone_entry.name, phone_entry.start * FRAME,
+                            (phone_entry.start + phone_entry.duration) * FRAME, 0, token))
+        token += 1
+    phones, tokens = _tile(entries, duration)
+    token_phones: dict[int, list[int]] = {}
+    for i, t in enumerate(tokens):
+        if t >= 0:
+            token_phones.setdefault(t, []).append(i)
+    _apply_stress(phones, token_phones, spans, spoken)
+
+    drafts = _drafts(spans, cleaned, token_phones, phones)
+    return assemble_utterance(text=text, language=language, samples=samples, sample_rate=rate,
+                              phones=phones, words=drafts, emotions=tags, pitch=pitch,
+                              source="alignment", warnings=warnings)
+
+
+def _espeak_pronunciations(text: str, voice: str) -> dict:
+    """Per token span, espeak-ng's ``[(unified phone, stress), ...]`` ({} without espeak-ng)."""
+    from .tts import pronounce  # noqa: PLC0415 - espeak is optional for dictionary words
+    try:
+        return pronounce(text, voice)
+    except UserError:
+        return {}
+
+
+def _apply_stress(phones, token_phones, spans, spoken) -> None:
+    """Lexical stress onto the aligned vowels: espeak's when its vowels line up, else the longest."""
+    for token, indices in token_phones.items():
+        vowels = [i for i in indices if is_vowel(phones[i].phone)]
+        if not vowels:
+            continue
+        stresses = [s for p, s in spoken.get(spans[token], []) if is_vowel(p)]
+        if len(stresses) != len(vowels) or not any(s == 1 for s in stresses):
+            stresses = [0] * len(vowels)
+            longest = max(range(len(vowels)), key=lambda j: phones[vowels[j]].duration)
+            stresses[longest] = 1
+        for i, s in zip(vowels, stresses):
+            p = phones[i]
+            phones[i] = Phone(p.symbol, p.phone, p.start, p.duration, s, p.word, p.syllable)
+
+
+def _drafts(spans, cleaned, token_phones, phones) -> list[WordDraft]:
+    """Words with sentence numbers (from . ? ! after a word) and phrase ends (, ; : or a pause)."""
+    drafts = []
+    sentence = 0
+    for token, (a, b) in enumerate(spans):
+        indices = token_phones.get(token, [])
+        following = cleaned[b:spans[token + 1][0]] if token + 1 < len(spans) else cleaned[b:]
+        ends_sentence = bool(_SENTENCE_END.search(following))
+        ends_phrase = bool(_PHRASE_END.search(following))
+        if indices and token + 1 < len(spans) and token_phones.get(token + 1):
+            gap = phones[token_phones[token + 1][0]].start - phones[indices[-1]].end
+            ends_phrase = ends_phrase or gap >= PHRASE_PAUSE
+        drafts.append(WordDraft(a, b, indices, sentence, ends_phrase))
+        if ends_sentence:
+            sentence += 1
+    return drafts
