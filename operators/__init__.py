@@ -3,7 +3,7 @@
 
 ``CLASSES`` and ``HANDLERS`` are what the extension root registers through ``registry``.
 """
-from . import ops_info
+from . import ops_info, ops_speech
 
-CLASSES = [*ops_info.CLASSES]
+CLASSES = [*ops_info.CLASSES, *ops_speech.CLASSES]
 HANDLERS = []

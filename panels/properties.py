@@ -4,12 +4,46 @@ from __future__ import annotations
 
 import bpy
 
+_voice_cache: list[str] = []
+
+
+def _voice_search(self, context, edit_text):
+    """Suggest espeak-ng voices while typing (the list is read once per session)."""
+    if not _voice_cache:
+        try:
+            from ..faces_hands_addon.speech import list_voices
+            _voice_cache.extend(sorted({v.identifier for v in list_voices()} |
+                                       {lang for v in list_voices() for lang in v.languages}))
+        except Exception:  # espeak missing: offer nothing rather than break the UI
+            _voice_cache.append("en-us")
+    return [v for v in _voice_cache if edit_text.lower() in v.lower()]
+
 
 class FH_SceneSettings(bpy.types.PropertyGroup):
     """Faces & Hands settings stored in the .blend file"""
 
     control_filter: bpy.props.StringProperty(
         name="Filter", description="Show only controls whose name contains this text", default="")
+    speech_text: bpy.props.StringProperty(
+        name="Text", default="Can you show me the way to the conference hall?",
+        description="What the character says. Emoticons such as :-) ;-) :-( add emotion tags")
+    speech_text_block: bpy.props.PointerProperty(
+        name="Text Block", type=bpy.types.Text,
+        description="Speak this text datablock instead of the line above (for longer texts)")
+    speech_voice: bpy.props.StringProperty(
+        name="Voice", default="en-us", search=_voice_search,
+        description="espeak-ng voice or language, e.g. en-us, en-gb, de, fr, ru")
+    speech_rate: bpy.props.IntProperty(name="Rate", default=175, min=80, max=450,
+                                       description="Speaking rate in words per minute")
+    speech_pitch: bpy.props.IntProperty(name="Pitch", default=50, min=0, max=100,
+                                        description="Voice pitch (espeak-ng scale, 50 = normal)")
+    speech_volume: bpy.props.IntProperty(name="Volume", default=100, min=0, max=200,
+                                         description="Loudness in percent")
+    audio_path: bpy.props.StringProperty(name="Audio", subtype="FILE_PATH",
+                                         description="Recorded speech: WAV, FLAC or OGG, any rate")
+    audio_transcript: bpy.props.StringProperty(
+        name="Transcript", description="What is said in the recording (without it, phones are "
+                                       "recognised, which is less accurate)")
 
 
 CLASSES = [FH_SceneSettings]

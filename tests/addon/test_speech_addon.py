@@ -1,0 +1,98 @@
+"""Speak Text / Lip Sync Audio through the installed add-on, on a mesh with viseme shape keys."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+VISEMES = ["viseme_sil", "viseme_PP", "viseme_FF", "viseme_TH", "viseme_DD", "viseme_kk", "viseme_CH",
+           "viseme_SS", "viseme_nn", "viseme_RR", "viseme_aa", "viseme_E", "viseme_I", "viseme_O", "viseme_U"]
+DATA = Path(__file__).resolve().parents[1] / "data" / "speech"
+
+
+def _viseme_mesh(bpy):
+    bpy.ops.mesh.primitive_plane_add()
+    obj = bpy.context.active_object
+    obj.shape_key_add(name="Basis")
+    for name in VISEMES + ["smile"]:
+        obj.shape_key_add(name=name)
+    return obj
+
+
+def _viseme_curves(obj):
+    anim = obj.data.shape_keys.animation_data
+    if anim is None or anim.action is None:
+        return {}
+    bag = anim.action.layers[0].strips[0].channelbag(anim.action_slot)
+    return {fc.data_path: fc for fc in bag.fcurves}
+
+
+def test_speak_text_drives_visemes_and_adds_sound(bpy_clean):
+    bpy = bpy_clean
+    scene = bpy.context.scene
+    scene.render.fps, scene.render.fps_base = 30000, 1001  # 29.97
+    scene.frame_start = 10
+    obj = _viseme_mesh(bpy)
+    key = obj.data.shape_keys
+    key.key_blocks["smile"].value = 0.3
+    key.key_blocks["smile"].keyframe_insert("value", frame=5)  # an artist's key that must survive
+    assert bpy.ops.faces_hands.speak_text(text="Can you show me the way to the conference hall?") == {"FINISHED"}
+    curves = _viseme_curves(obj)
+    viseme_curves = [p for p in curves if "viseme_" in p]
+    assert len(viseme_curves) == 15
+    assert 'key_blocks["smile"].value' in curves
+    strips = [s for s in scene.sequence_editor.strips if s.name.startswith("FH Speech")]
+    assert len(strips) == 1 and strips[0].frame_start == 10 and strips[0].sound.packed_file is not None
+    fps = 30000 / 1001
+    pp = curves['key_blocks["viseme_PP"].value']
+    frames = np.array([k.co[0] for k in pp.keyframe_points])
+    duration_frames = strips[0].frame_final_duration
+    assert frames[0] == pytest.approx(10, abs=1.0)
+    assert abs(frames[-1] - (10 + duration_frames)) < 0.1 * fps
+    values = np.array([k.co[1] for k in pp.keyframe_points])
+    assert values.max() > 0.5, "the /p/ /m/ of 'me' and 'show me' never reach the PP viseme"
+    # run again: the take is replaced, not stacked; the artist's key survives
+    assert bpy.ops.faces_hands.speak_text(text="Hello there.") == {"FINISHED"}
+    curves = _viseme_curves(obj)
+    assert len([p for p in curves if "viseme_" in p]) == 15
+    assert 'key_blocks["smile"].value' in curves
+    assert len([s for s in scene.sequence_editor.strips if s.name.startswith("FH Speech")]) == 1
+
+
+def test_speak_empty_text_changes_nothing(bpy_clean):
+    bpy = bpy_clean
+    obj = _viseme_mesh(bpy)
+    bpy.context.scene.faces_hands.speech_text = "   "
+    with pytest.raises(RuntimeError, match="no text"):
+        bpy.ops.faces_hands.speak_text(text="")
+    assert obj.data.shape_keys.animation_data is None
+    assert bpy.context.scene.sequence_editor is None or len(bpy.context.scene.sequence_editor.strips) == 0
+
+
+def test_target_without_visemes_is_a_clear_error(bpy_clean):
+    bpy = bpy_clean
+    bpy.ops.mesh.primitive_cube_add()
+    with pytest.raises(RuntimeError, match="viseme shape keys"):
+        bpy.ops.faces_hands.speak_text(text="Hello.")
+
+
+def test_lipsync_audio_file(bpy_clean):
+    bpy = bpy_clean
+    wav = next(DATA.glob("*.wav"))
+    transcript = wav.with_suffix(".txt").read_text().strip()
+    obj = _viseme_mesh(bpy)
+    assert bpy.ops.faces_hands.lipsync_audio(filepath=str(wav), transcript=transcript) == {"FINISHED"}
+    assert len([p for p in _viseme_curves(obj) if "viseme_" in p]) == 15
+    strip = bpy.context.scene.sequence_editor.strips[0]
+    assert Path(bpy.path.abspath(strip.sound.filepath)).resolve() == wav.resolve()
+
+
+def test_corrupt_audio_changes_nothing(bpy_clean, tmp_path):
+    bpy = bpy_clean
+    bad = tmp_path / "broken.wav"
+    bad.write_bytes(b"RIFF\x00\x00\x00\x00WAVEfmt garbage")
+    obj = _viseme_mesh(bpy)
+    with pytest.raises(RuntimeError):
+        bpy.ops.faces_hands.lipsync_audio(filepath=str(bad), transcript="hello")
+    assert obj.data.shape_keys.animation_data is None
