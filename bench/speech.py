@@ -5,9 +5,7 @@ recorded audio, coarticulated tracks (muscles and visemes), each also as a ratio
 Goals: tracks + keyframes for 30 s in < 1 s; alignment faster than 0.3x real time. (The thesis needed
 7 s for 30 s of audio on its 2002 machine.) The last line is ``RESULT key=value ...``.
 
-Runs the engine from this source tree. Its run-time wheels (espeakng-loader, pocketsphinx, scipy,
-soundfile) come from the Python running it or, failing that, from the extension installed by
-``make install`` into ``.blender-user``.
+Runs the extension installed by ``make install`` (see ``_harness.py``), wheels included.
 """
 from __future__ import annotations
 
@@ -15,17 +13,8 @@ import sys
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-try:
-    import espeakng_loader  # noqa: F401
-    import pocketsphinx  # noqa: F401
-    import scipy  # noqa: F401
-    import soundfile  # noqa: F401
-except ImportError:
-    sys.path.insert(0, str(ROOT / "scripts"))
-    import blender_env  # noqa: E402
-    sys.path.insert(0, str(blender_env.wheel_site_packages(ROOT / ".blender-user")))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import _harness  # noqa: E402,F401  (the installed extension)
 
 import numpy as np  # noqa: E402
 
@@ -76,11 +65,44 @@ def main() -> None:
               f"{tracks_s:.4f} s = {tracks_s * SECONDS / duration:.4f} s per 30 s of speech")
     tracks_per_30s = tracks_s * SECONDS / duration
 
-    # ---- KEYFRAMES (lead): time writing these tracks into Blender F-curves here and add
-    # ---- `keyframes_s_per_30s=...` to the RESULT line below.
+    keyframes_s = time_keyframes(utterance, fps=24)
+    print(f"keyframes into Blender (13 muscle F-curves on a rig + 15 viseme F-curves, 24 fps): "
+          f"{keyframes_s:.4f} s = {keyframes_s * SECONDS / duration:.4f} s per 30 s of speech")
+    total_per_30s = (tracks_s + keyframes_s) * SECONDS / duration
+    print(f"tracks + keyframes: {total_per_30s:.4f} s per 30 s of speech (goal < 1 s)")
 
-    print(f"RESULT tracks_s_per_30s={tracks_per_30s:.4f} align_rt={align_s / duration:.4f} "
+    print(f"RESULT tracks_s_per_30s={tracks_per_30s:.4f} keyframes_s_per_30s={keyframes_s * SECONDS / duration:.4f} "
+          f"tracks_keys_s_per_30s={total_per_30s:.4f} align_rt={align_s / duration:.4f} "
           f"tts_rt={tts_s / duration:.4f}")
+
+
+def time_keyframes(utterance, fps: int) -> float:
+    """Time ``bl_speech.apply_take`` (the operators' write path) for both targets, sound strip excluded."""
+    import bpy
+    from faces_hands_addon.speech.takes import take_from_utterance
+    bl_speech = _harness.EXTENSION.operators.bl_speech
+    bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
+    scene = bpy.context.scene
+    scene.render.fps, scene.render.fps_base = fps, 1.0
+    rig = bpy.data.objects.new("BenchRig", None)
+    rig["fh_rig"] = 1
+    mesh = bpy.data.meshes.new("BenchVisemes")
+    mesh.from_pydata([(0, 0, 0), (1, 0, 0), (0, 1, 0)], [], [(0, 1, 2)])
+    character = bpy.data.objects.new("BenchVisemes", mesh)
+    for obj in (rig, character):
+        scene.collection.objects.link(obj)
+    character.shape_key_add(name="Basis")
+    from faces_hands_addon.speech import VISEMES
+    for name in VISEMES:
+        character.shape_key_add(name=name)
+    takes = [(rig, take_from_utterance(utterance, fps=fps, target="muscles")),
+             (character, take_from_utterance(utterance, fps=fps, target="visemes"))]
+
+    def write():
+        for obj, take in takes:
+            bl_speech.apply_take(scene, obj, take, add_sound=False)
+    seconds, _ = best_of(3, write)
+    return seconds
 
 
 if __name__ == "__main__":

@@ -86,6 +86,20 @@ def enable(user_dir: Path):
     return sys.modules[MODULE]
 
 
+def alias_installed_engine() -> None:
+    """Make ``import faces_hands_addon.x`` return the installed extension's own module objects
+    (``bl_ext.user_default.faces_hands.faces_hands_addon.x``), so tests and benchmarks exercise
+    exactly what a user installed, never the source tree."""
+    import importlib
+    import pkgutil
+    installed = f"{MODULE}.faces_hands_addon"
+    package = importlib.import_module(installed)
+    sys.modules["faces_hands_addon"] = package
+    for info in pkgutil.walk_packages(package.__path__, prefix=installed + "."):
+        module = importlib.import_module(info.name)
+        sys.modules["faces_hands_addon" + info.name[len(installed):]] = module
+
+
 def _raise(exc):
     raise exc
 

@@ -9,9 +9,7 @@ iteration (engine tests only, source tree on sys.path); CI never sets it.
 """
 from __future__ import annotations
 
-import importlib
 import os
-import pkgutil
 import shutil
 import sys
 import tempfile
@@ -24,8 +22,6 @@ sys.path.insert(0, str(ROOT / "scripts"))
 import blender_env  # noqa: E402
 
 FROM_SOURCE = os.environ.get("FH_TEST_FROM_SOURCE") == "1"
-ENGINE = "faces_hands_addon"
-INSTALLED_ENGINE = f"{blender_env.MODULE}.{ENGINE}"
 
 
 class Installed:
@@ -33,15 +29,6 @@ class Installed:
     user_dir: Path | None = None
     extension_dir: Path | None = None
     zip_path: Path | None = None
-
-
-def _alias_installed_engine() -> None:
-    """Make ``import faces_hands_addon.x`` return the installed module objects themselves."""
-    package = importlib.import_module(INSTALLED_ENGINE)
-    sys.modules[ENGINE] = package
-    for info in pkgutil.walk_packages(package.__path__, prefix=INSTALLED_ENGINE + "."):
-        module = importlib.import_module(info.name)
-        sys.modules[ENGINE + info.name[len(INSTALLED_ENGINE):]] = module
 
 
 def _install_for_session() -> None:
@@ -56,7 +43,7 @@ def _install_for_session() -> None:
     Installed.user_dir = user_dir
     Installed.extension_dir = blender_env.extension_dir(user_dir)
     Installed.zip_path = zip_path
-    _alias_installed_engine()
+    blender_env.alias_installed_engine()
 
 
 _install_for_session()

@@ -1,0 +1,24 @@
+"""Benchmarks run the extension installed by ``make install`` (``.blender-user``), like the tests:
+``import _harness`` enables it inside the bpy module and makes ``faces_hands_addon`` the installed copy."""
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "scripts"))
+import blender_env  # noqa: E402
+
+USER_DIR = Path(os.environ.get("FH_BENCH_USER_DIR", ROOT / ".blender-user"))
+if not blender_env.extension_dir(USER_DIR).exists():
+    sys.exit(f"the extension is not installed in {USER_DIR}; run `make install` (or `make bench`)")
+_stdout = os.dup(1)
+os.dup2(2, 1)  # keep Blender's start-up chatter off the figures
+try:
+    EXTENSION = blender_env.enable(USER_DIR)
+finally:
+    sys.stdout.flush()
+    os.dup2(_stdout, 1)
+    os.close(_stdout)
+blender_env.alias_installed_engine()
