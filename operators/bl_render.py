@@ -54,9 +54,12 @@ def frame_camera(scene: bpy.types.Scene, objects, azimuth_deg: float = 0.0, elev
     return camera
 
 
-def render_objects(scene, objects, filepath: str | Path, size=(480, 480), azimuth_deg: float = 0.0) -> Path:
+def render_objects(scene, objects, filepath: str | Path, size=(480, 480), azimuth_deg: float = 0.0,
+                   reframe: bool = True) -> Path:
+    """Render ``objects`` with Workbench to a PNG; ``reframe=False`` keeps the current camera."""
     setup_workbench(scene, size)
-    frame_camera(scene, objects, azimuth_deg=azimuth_deg)
+    if reframe or scene.camera is None:
+        frame_camera(scene, objects, azimuth_deg=azimuth_deg)
     scene.render.filepath = str(filepath)
     bpy.ops.render.render(write_still=True)
     return Path(filepath)

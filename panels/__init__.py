@@ -4,8 +4,8 @@
 The extension root registers ``PROPERTY_CLASSES``, ``PROPERTIES`` and ``CLASSES`` through
 ``operators.registry``.
 """
-from . import main_panel, properties, speech_panel
+from . import face_panel, main_panel, properties, speech_panel
 
 PROPERTY_CLASSES = [*properties.CLASSES]
 PROPERTIES = [*properties.PROPERTIES]
-CLASSES = [*main_panel.CLASSES, *speech_panel.CLASSES]
+CLASSES = [*main_panel.CLASSES, *face_panel.CLASSES, *speech_panel.CLASSES]

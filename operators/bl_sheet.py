@@ -1,0 +1,135 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Labelled contact sheets of a face rig: one small Workbench render per pose, composed into one PNG.
+
+Each cell is the *simulated* face (settled from rest with the cell's controls, 3.1.2), pushed into the
+rig's simulation key, rendered with a text label under the head. Used by ``faces_hands render --sheet``
+and the demo, and by the tests that look at what the rig does.
+"""
+from __future__ import annotations
+
+import math
+import shutil
+import tempfile
+from pathlib import Path
+from typing import Callable
+
+import bpy
+import numpy as np
+
+from . import bl_face, bl_render
+
+Cell = tuple[str, dict]
+
+
+def expression_cells(rig, include=("neutral", "muscles", "direct", "arkit", "visemes")) -> list[Cell]:
+    """Neutral, each muscle at full contraction, each direct parameter at full value, ARKit and visemes."""
+    from ..faces_hands_addon.face.expressions import load_expressions
+    specs = rig.control_specs()
+    cells: list[Cell] = []
+    if "neutral" in include:
+        cells.append(("neutral", {}))
+    if "muscles" in include:
+        cells += [(name, {name: 1.0}) for name, spec in specs.items() if spec.kind == "muscle"]
+    if "direct" in include:
+        for name, spec in specs.items():
+            if spec.kind == "direct":
+                cells.append((name, {name: spec.maximum}))
+                if spec.minimum < 0:
+                    cells.append((f"{name} -1", {name: spec.minimum}))
+    for set_name in ("arkit", "visemes"):
+        if set_name in include:
+            cells += list(load_expressions(set_name).items())
+    return cells
+
+
+def _label_object(collection, text: str, location, size: float):
+    curve = bpy.data.curves.new("FH Sheet Label", "FONT")
+    curve.body = text
+    curve.size = size
+    curve.align_x = "CENTER"
+    label = bpy.data.objects.new("FH Sheet Label", curve)
+    collection.objects.link(label)
+    label.location = location
+    label.rotation_euler = (math.pi / 2, 0.0, 0.0)  # readable from the front camera (-Y)
+    material = bpy.data.materials.get("FH Sheet Label") or bpy.data.materials.new("FH Sheet Label")
+    material.diffuse_color = (0.05, 0.05, 0.05, 1.0)
+    curve.materials.append(material)
+    return label
+
+
+def _read_png(path: Path) -> np.ndarray:
+    image = bpy.data.images.load(str(path))
+    try:
+        width, height = image.size
+        pixels = np.empty(width * height * 4, dtype=np.float32)
+        image.pixels.foreach_get(pixels)
+        return pixels.reshape(height, width, 4)
+    finally:
+        bpy.data.images.remove(image)
+
+
+def write_png(array: np.ndarray, path: Path) -> None:
+    height, width = array.shape[:2]
+    image = bpy.data.images.new("FH Sheet", width=width, height=height, alpha=True)
+    try:
+        image.pixels.foreach_set(np.ascontiguousarray(array, dtype=np.float32).ravel())
+        image.filepath_raw = str(path)
+        image.file_format = "PNG"
+        image.save()
+    finally:
+        bpy.data.images.remove(image)
+
+
+def render_sheet(context, obj, cells: list[Cell], out_path, cell_size=(220, 250), columns: int = 8,
+                 progress: Callable[[float, str], None] | None = None, settle_time: float = 1.2) -> Path:
+    """Render one cell per (label, controls) and compose them row by row into ``out_path`` (PNG)."""
+    from ..faces_hands_addon.face import baking
+    rig = bl_face.get_rig(obj)
+    scene = context.scene
+    visible = [obj] + [p for role, p in bl_face.parts(obj).items()
+                       if role not in ("skull", "jaw", "muscles")]
+    hidden_before = {o.name: o.hide_render for o in scene.objects}
+    for other in scene.objects:
+        other.hide_render = other not in visible
+    matrix = np.asarray(obj.matrix_world)
+    world = rig.rest_positions @ matrix[:3, :3].T + matrix[:3, 3]
+    low, high = world.min(axis=0), world.max(axis=0)
+    height = float(high[2] - low[2])
+    label = _label_object(scene.collection, "", ((low[0] + high[0]) / 2, low[1] - 0.02, low[2] - 0.09 * height),
+                          0.085 * height)
+    tmp_dir = Path(tempfile.mkdtemp(prefix="fh-sheet-"))
+    tiles = []
+    label.data.body = "neutral"
+    bl_render.setup_workbench(scene, cell_size)
+    bl_render.frame_camera(scene, visible + [label], margin=1.1)
+    try:
+        for index, (name, controls) in enumerate(cells):
+            if progress:
+                progress(index / max(len(cells), 1), f"rendering {name}")
+            positions, _ = baking.settled_shape(rig, controls, settle_time)
+            bl_face.push_pose(obj, rig, positions)
+            label.data.body = name
+            tile = tmp_dir / f"cell_{index:04d}.png"
+            bl_render.render_objects(scene, visible + [label], tile, size=cell_size, reframe=False)
+            tiles.append(_read_png(tile))
+        rows = math.ceil(len(tiles) / columns)
+        tile_h, tile_w = tiles[0].shape[:2]
+        sheet = np.ones((rows * tile_h, columns * tile_w, 4), dtype=np.float32)
+        for index, tile in enumerate(tiles):
+            row, col = divmod(index, columns)
+            top = (rows - 1 - row) * tile_h  # Blender images start at the bottom row
+            sheet[top:top + tile_h, col * tile_w:(col + 1) * tile_w] = tile
+        out_path = Path(out_path)
+        write_png(sheet, out_path)
+        if progress:
+            progress(1.0, f"contact sheet with {len(tiles)} cells")
+    finally:
+        baking.reset_to_rest(rig)
+        bl_face.push_pose(obj, rig)
+        curve = label.data
+        bpy.data.objects.remove(label)
+        bpy.data.curves.remove(curve)
+        for other in scene.objects:
+            other.hide_render = hidden_before.get(other.name, False)
+        shutil.rmtree(tmp_dir, ignore_errors=True)
+    return out_path
