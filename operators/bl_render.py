@@ -2,7 +2,10 @@
 """Small headless renders (Workbench) for previews, contact sheets and tests."""
 from __future__ import annotations
 
+import contextlib
 import math
+import os
+import sys
 from pathlib import Path
 
 import bpy
@@ -33,9 +36,10 @@ def setup_workbench(scene: bpy.types.Scene, size=(480, 480)) -> None:
 
 
 def frame_camera(scene: bpy.types.Scene, objects, azimuth_deg: float = 0.0, elevation_deg: float = 5.0,
-                 margin: float = 1.15) -> bpy.types.Object:
-    """Place an orthographic camera looking at ``objects`` from the front (-Y), turned by azimuth."""
-    low, high = _bounds(objects)
+                 margin: float = 1.15, bounds=None) -> bpy.types.Object:
+    """Place an orthographic camera looking at ``objects`` (or explicit world ``bounds`` = (low, high))
+    from the front (-Y), turned by azimuth."""
+    low, high = (np.asarray(b, dtype=float) for b in bounds) if bounds is not None else _bounds(objects)
     centre = (low + high) / 2
     extent = float(np.max(high - low)) * margin
     camera_data = bpy.data.cameras.get("FH Preview Camera") or bpy.data.cameras.new("FH Preview Camera")
@@ -61,5 +65,22 @@ def render_objects(scene, objects, filepath: str | Path, size=(480, 480), azimut
     if reframe or scene.camera is None:
         frame_camera(scene, objects, azimuth_deg=azimuth_deg)
     scene.render.filepath = str(filepath)
-    bpy.ops.render.render(write_still=True)
+    with quiet_stdout():
+        bpy.ops.render.render(write_still=True)
     return Path(filepath)
+
+
+@contextlib.contextmanager
+def quiet_stdout():
+    """Keep Blender's per-render 'Saved: ...' lines off stdout (the CLI's output is its report)."""
+    sys.stdout.flush()
+    saved = os.dup(1)
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, 1)
+        yield
+    finally:
+        sys.stdout.flush()
+        os.dup2(saved, 1)
+        os.close(saved)
+        os.close(devnull)

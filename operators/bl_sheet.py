@@ -101,7 +101,9 @@ def render_sheet(context, obj, cells: list[Cell], out_path, cell_size=(220, 250)
     tiles = []
     label.data.body = "neutral"
     bl_render.setup_workbench(scene, cell_size)
-    bl_render.frame_camera(scene, visible + [label], margin=1.1)
+    margin_below = 0.22 * height  # room for the label under the chin
+    bl_render.frame_camera(scene, visible, margin=1.08,
+                           bounds=(low - np.array([0.0, 0.0, margin_below]), high))
     try:
         for index, (name, controls) in enumerate(cells):
             if progress:

@@ -8,6 +8,7 @@ import bpy
 
 from ..faces_hands_addon.errors import UserError
 from . import bl_export, bl_face, bl_sheet
+from .bl_render import quiet_stdout
 from .jobs import run_job
 from .outputs import atomic_output, check_output_path, written
 
@@ -36,7 +37,7 @@ def find_rig(name: str | None = None):
 
 
 def save_blend(path: Path) -> None:
-    with atomic_output(path) as tmp:
+    with atomic_output(path) as tmp, quiet_stdout():
         bpy.ops.wm.save_as_mainfile(filepath=str(tmp), copy=True, check_existing=False)
 
 
