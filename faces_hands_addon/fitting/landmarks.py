@@ -1,0 +1,207 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Automatic landmark location on an arbitrary head mesh (thesis 3.1.2 "Creating New Animatable Head
+Models from the Template").
+
+"For the deformation, feature points must be placed at corresponding locations on the target skin mesh."
+MEDUSA had them placed interactively; here the 468 landmarks of MediaPipe's canonical face are found
+automatically by registering the canonical face onto the target:
+
+1. depth-image search for the face in six orientation hypotheses (:mod:`.align`); a head that does not
+   face -Y is refused with advice on how to rotate it;
+2. scaled rigid ICP of the template onto the face region (:mod:`.align`), then a global affine ICP;
+3. optimal-step non-rigid ICP (Amberg et al. 2007) with a reverse (target -> template) term and a final
+   point-to-plane stage (:mod:`.nicp`);
+4. each fitted template vertex is projected onto the target triangles: (triangle, barycentric) per
+   landmark, so markers can be re-projected after the artist drags them (:func:`.project_to_surface`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import UserError
+from .align import FACINGS, refine_search, scaled_rigid_icp, search_orientations
+from .nicp import affine_icp, nonrigid_icp, plane_refinement
+from .surface import TargetSurface, checked_mesh, triangle_normals
+from .template import LEFT_TRAGUS, RIGHT_TRAGUS, face_template
+
+__all__ = ["LandmarkFit", "locate_landmarks", "MAX_RMS_FRACTION", "MIN_MATCHED_FRACTION"]
+
+MAX_RMS_FRACTION = 0.04        # a fit whose RMS distance exceeds 4 % of the face width failed
+MIN_MATCHED_FRACTION = 0.5     # ... as does one where fewer than half the landmarks found the surface
+_FACE_SCORE_LIMIT = 0.6        # depth-search score above which no face-like relief was found
+_ORIENTATION_MARGIN = 1.3      # another orientation must beat -Y by this factor to be reported
+_CROP_MARGIN = 0.4             # face-region crop around the placed template, in face widths
+_FACE_SAMPLES = 2000           # target points for the reverse (target -> template) term
+
+
+@dataclass(frozen=True)
+class LandmarkFit:
+    """The 468 landmarks located on a target mesh (all positions in the target's units and axes).
+
+    ``positions[i]`` lies on triangle ``triangles[i]`` at ``barycentric[i]``; ``fitted_template`` is the
+    registered template before that last projection and ``distances`` the gap between the two.
+    ``matched[i]`` says whether landmark i had a trustworthy surface correspondence in the final
+    iteration (False over eye/mouth openings, off the edge of a face mask, or where normals or distance
+    disagree: such landmarks were placed by the template's stiffness and snapped to the nearest surface).
+    ``rms_distance`` / ``max_distance`` are taken over the landmarks whose nearest surface point is not
+    on a mesh border (so not over an opening); ``matched_fraction`` is the share of matched landmarks.
+    """
+    positions: np.ndarray
+    triangles: np.ndarray
+    barycentric: np.ndarray
+    fitted_template: np.ndarray
+    matched: np.ndarray
+    distances: np.ndarray
+    rms_distance: float
+    max_distance: float
+    matched_fraction: float
+    face_width: float
+    search_score: float
+    rigid_scale: float
+    rigid_rotation: np.ndarray
+    rigid_translation: np.ndarray
+    seed: int
+    warnings: tuple = field(default=())
+
+    @property
+    def rms_fraction(self) -> float:
+        """RMS distance (landmarks not over an opening) as a fraction of the face width."""
+        return self.rms_distance / self.face_width
+
+    def quality(self) -> dict:
+        """A small report for the UI / logs."""
+        return {"rms_distance": self.rms_distance, "max_distance": self.max_distance,
+                "rms_percent_of_face_width": 100.0 * self.rms_fraction,
+                "matched_fraction": self.matched_fraction, "face_width": self.face_width,
+                "search_score": self.search_score, "warnings": list(self.warnings)}
+
+
+def _choose_orientation(vertices, faces, areas, template, rng):
+    """Depth-image search for the face (:mod:`.align`). Upright -Y and the wrong orientations first; the
+    tilted -Y variants only when that is not conclusive. Refuses a mesh that clearly faces elsewhere
+    (UserError with the rotation to apply) or shows no face at all."""
+    upright = tuple(f for f in FACINGS if not f.front or f.name == "-Y")
+    tilted = tuple(f for f in FACINGS if f.front and f.name != "-Y")
+    coarse = search_orientations(vertices, faces, areas, template, rng, upright)
+    rivals = sorted((m for m in coarse if not m.facing.front), key=lambda m: m.score)[:2]
+
+    def best_front(matches):
+        fronts = sorted((m for m in matches if m.facing.front), key=lambda m: m.score)[:2]
+        refined = [refine_search(vertices, faces, areas, template, m, rng) for m in fronts]
+        return min(refined, key=lambda m: m.score) if refined else None, fronts
+
+    def conclusive(front, fronts):
+        return (front is not None and front.score < 0.5 * _FACE_SCORE_LIMIT
+                and all(r.score > fronts[0].score for r in rivals))
+
+    front, fronts = best_front(coarse)
+    if not conclusive(front, fronts):
+        coarse = coarse + search_orientations(vertices, faces, areas, template, rng, tilted)
+        front, fronts = best_front(coarse)
+    if front is None:
+        raise UserError("could not find a face on the mesh: seen from the front (-Y) it covers too little "
+                        "area; check that it is a head facing -Y with Z up")
+    if not conclusive(front, fronts):
+        refined = [refine_search(vertices, faces, areas, template, m, rng) for m in rivals]
+        rival = min(refined, key=lambda m: m.score) if refined else None
+        if rival is not None and rival.score < _FACE_SCORE_LIMIT and rival.score * _ORIENTATION_MARGIN < front.score:
+            raise UserError(rival.facing.advice)
+    if front.score > _FACE_SCORE_LIMIT:
+        raise UserError("could not find a face on the mesh (no nose/eyes/mouth relief seen from the front, -Y); "
+                        "the mesh must be a human head or face mask facing -Y with Z up")
+    return front
+
+
+def _face_region(vertices: np.ndarray, faces: np.ndarray, placed: np.ndarray, margin: float) -> np.ndarray:
+    """Triangles with a vertex inside the placed template's bounding box grown by ``margin``."""
+    low, high = placed.min(axis=0) - margin, placed.max(axis=0) + margin
+    inside = ((vertices >= low) & (vertices <= high)).all(axis=1)
+    return np.flatnonzero(inside[faces].any(axis=1))
+
+
+def _face_samples(vertices, faces, areas, surface: TargetSurface, placed: np.ndarray, rng):
+    """Points spread uniformly over the target inside the placed template's reach, with their normals."""
+    width = float(np.linalg.norm(placed[LEFT_TRAGUS] - placed[RIGHT_TRAGUS]))
+    region = _face_region(vertices, faces, placed, 0.1 * width)
+    region = region[areas[region] > 0]
+    if len(region) == 0:
+        return None, None
+    tri = rng.choice(region, size=_FACE_SAMPLES, p=areas[region] / areas[region].sum())
+    r1, r2 = rng.random(_FACE_SAMPLES), rng.random(_FACE_SAMPLES)
+    root = np.sqrt(r1)
+    bary = np.stack([1 - root, root * (1 - r2), root * r2], axis=1)
+    points = (bary[:, :, None] * vertices[faces[tri]]).sum(axis=1)
+    return points, surface.normals[tri]
+
+
+def locate_landmarks(target_vertices, target_faces, *, seed: int = 0, progress=None) -> LandmarkFit:
+    """Locate the 468 MediaPipe landmarks on a head mesh facing -Y with Z up, at any scale and position.
+
+    ``target_faces`` are triangles ((M, 3) indices). ``progress(fraction, message)`` is called now and
+    then. Raises :class:`UserError` for unusable meshes (no faces, NaN, degenerate, too large), a mesh
+    facing another way (with the rotation to apply), or a failed fit (see ``MAX_RMS_FRACTION``).
+    Deterministic for a given ``seed`` (it seeds the surface sampling of the face search).
+    """
+    def report(fraction: float, message: str) -> None:
+        if progress is not None:
+            progress(float(fraction), message)
+
+    vertices, faces = checked_mesh(target_vertices, target_faces)
+    used = vertices[np.unique(faces)]
+    centre = 0.5 * (used.min(axis=0) + used.max(axis=0))
+    unit = float(np.linalg.norm(used.max(axis=0) - used.min(axis=0)))
+    local = (vertices - centre) / unit                         # scale-free working coordinates
+    normals, areas = triangle_normals(local, faces)
+    rng = np.random.default_rng(seed)
+    template = face_template()
+    warnings = []
+
+    report(0.0, "searching for the face")
+    match = _choose_orientation(local, faces, areas, template, rng)
+    report(0.25, "rigid alignment")
+    placed = match.similarity.apply(template.vertices)
+    width = match.similarity.scale * template.width
+    region = _face_region(local, faces, placed, _CROP_MARGIN * width)
+    surface = TargetSurface(local, faces, region, normals=normals)
+    similarity, surface, flipped = scaled_rigid_icp(template, surface, match.similarity)
+    if flipped:
+        warnings.append("the mesh's normals point inwards; they were treated as flipped")
+
+    def stage_progress(fraction: float, message: str) -> None:
+        report(0.35 + 0.55 * fraction, message)
+
+    report(0.3, "affine alignment")
+    start = affine_icp(template, surface, similarity.apply(template.vertices))
+    samples, sample_normals = _face_samples(local, faces, areas, surface, start, rng)
+    fit = nonrigid_icp(template, surface, start, target_samples=samples, target_sample_normals=sample_normals,
+                       progress=stage_progress)
+    report(0.9, "sliding refinement")
+    fit = plane_refinement(template, surface, fit.vertices, target_samples=samples,
+                           target_sample_normals=sample_normals)
+    hit = fit.hit
+    positions = (hit.barycentric[:, :, None] * vertices[faces[hit.triangles]]).sum(axis=1)
+    fitted = fit.vertices * unit + centre
+    distances = hit.distances * unit
+    matched = fit.matched
+    face_width = float(np.linalg.norm(positions[LEFT_TRAGUS] - positions[RIGHT_TRAGUS]))
+    matched_fraction = float(matched.mean())
+    on_skin = ~hit.on_border          # landmarks over openings / off a mask's edge do not count
+    rms = float(np.sqrt(np.mean(distances[on_skin] ** 2))) if on_skin.any() else float("inf")
+    max_distance = float(distances[on_skin].max()) if on_skin.any() else float("inf")
+    if not face_width > 0 or rms > MAX_RMS_FRACTION * face_width or matched_fraction < MIN_MATCHED_FRACTION:
+        raise UserError(
+            f"could not fit the face template to this mesh: RMS distance {100 * rms / max(face_width, 1e-30):.1f} % "
+            f"of the face width (limit {100 * MAX_RMS_FRACTION:.0f} %), {100 * matched_fraction:.0f} % of the "
+            f"landmarks found the surface (need {100 * MIN_MATCHED_FRACTION:.0f} %); check that the mesh is a "
+            "human face facing -Y with Z up, or place the landmarks by hand")
+    report(1.0, "landmarks located")
+    return LandmarkFit(
+        positions=positions, triangles=hit.triangles.copy(), barycentric=hit.barycentric.copy(),
+        fitted_template=fitted, matched=matched.copy(), distances=distances, rms_distance=rms,
+        max_distance=max_distance, matched_fraction=matched_fraction, face_width=face_width,
+        search_score=float(match.score), rigid_scale=float(similarity.scale * unit),
+        rigid_rotation=similarity.rotation.copy(), rigid_translation=similarity.translation * unit + centre,
+        seed=int(seed), warnings=tuple(warnings))
+
