@@ -3,8 +3,7 @@
 register the canonical face onto synthetic full heads (face + cranium cap, ears, neck, shoulders) of about
 5k, 50k and 200k vertices, and the landmark error against the known ground truth.
 
-Run: ``FH_TEST_FROM_SOURCE=1 python bench/fitting.py`` from the repository root (engine only, no bpy).
-Prints one line per target and ends with
+Runs the extension installed by ``make install`` (see ``_harness.py``). Prints one line per target and ends with
 ``RESULT fit_s_5k=... fit_s_50k=... fit_s_200k=... median_err_pct=...`` (median landmark error in % of the
 face width, median over the three targets). Timings are wall-clock, best of ``--repeat`` runs, one
 process; set OMP_NUM_THREADS=1 for single-core figures.
@@ -16,7 +15,8 @@ import sys
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import _harness  # noqa: E402,F401  (the installed extension)
 
 import numpy as np  # noqa: E402
 
