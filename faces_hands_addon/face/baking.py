@@ -36,12 +36,10 @@ class BakedShape:
 
 
 def reset_to_rest(rig) -> None:
-    """Put the rig's simulation back into its rest state (positions at rest, no velocity)."""
-    network, integrator = rig.face.network, rig.face.integrator
-    network.positions[...] = rig.rest_positions.T.astype(network.positions.dtype)
-    integrator.velocity[...] = 0.0
-    integrator.started = False
+    """Put the rig back into its rest state: controls at their defaults, skin, velocities, attachments
+    and guards at rest (``FaceRig.reset_state``)."""
     rig.reset_controls()
+    rig.reset_state()
 
 
 def settled_shape(rig, controls: dict[str, float], settle_time: float = 1.5

@@ -1,0 +1,180 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Direct parameters (thesis 3.1.1 and 3.1.2 "Eyes, Teeth, Tongue"): the jaw's four degrees of freedom
+("pitch and yaw as well as horizontal and vertical position") about the temporomandibular joint, eye gaze,
+eyelids that close and follow the gaze, and a rigid tongue. Everything returns 4x4 matrices in head
+coordinates or, for the lids (which are part of the skin), rotated rest positions of the lid nodes.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["JawLimits", "rotation", "jaw_matrix", "opening_glide", "eye_matrix", "tongue_matrix", "LidRig", "EYE_YAW_DEG",
+           "EYE_PITCH_DEG"]
+
+EYE_YAW_DEG = 35.0       # gaze range left/right at eye_yaw = +-1
+EYE_PITCH_DEG = 25.0     # gaze range up/down at eye_pitch = +-1
+
+
+def rotation(axis: np.ndarray, angle: float, centre: np.ndarray | None = None) -> np.ndarray:
+    """4x4 rotation by ``angle`` (radians, right hand) about ``axis`` through ``centre``."""
+    axis = np.asarray(axis, np.float64)
+    axis = axis / np.linalg.norm(axis)
+    x, y, z = axis
+    c, s = np.cos(angle), np.sin(angle)
+    k = np.array([[0, -z, y], [z, 0, -x], [-y, x, 0]])
+    r = np.eye(3) + s * k + (1 - c) * (k @ k)
+    out = np.eye(4)
+    out[:3, :3] = r
+    if centre is not None:
+        centre = np.asarray(centre, np.float64)
+        out[:3, 3] = centre - r @ centre
+    return out
+
+
+def translation(offset: np.ndarray) -> np.ndarray:
+    out = np.eye(4)
+    out[:3, 3] = offset
+    return out
+
+
+@dataclass(frozen=True)
+class JawLimits:
+    """Ranges of the jaw's direct parameters (3.1.1: pitch, yaw, horizontal and vertical position)."""
+    open_deg: float = 22.0          # jaw_open = 1: rotation about the condyles ...
+    gape: float = 0.040             # ... plus the condylar glide: the lower incisors travel this far
+    yaw_deg: float = 6.0            # jaw_yaw = +-1: ~9 mm sideways at the chin
+    forward: float = 0.006          # jaw_forward = 1: protrusion (m)
+    backward: float = 0.002         # jaw_forward = -1: retrusion (m)
+    drop: float = 0.005             # jaw_drop = 1: straight down (m)
+    lift: float = 0.001             # jaw_drop = -1: up (m)
+
+
+def opening_glide(pivot: np.ndarray, axis: np.ndarray, incisor: np.ndarray,
+                  limits: JawLimits = JawLimits()) -> np.ndarray:
+    """Translation that accompanies full opening (3.1.1: "jaw motion involves a combination of rotation and
+    translation"): the condyles glide forward and down along the articular eminence so that the lower
+    incisors move mostly down (``limits.gape`` metres, 15 deg behind the vertical), whatever the proportions
+    of the head; rotation + glide amount to a rotation about a centre well below the condyles."""
+    rotate = rotation(axis, np.radians(limits.open_deg), pivot)
+    direction = np.array([0.0, np.sin(np.radians(15.0)), -np.cos(np.radians(15.0))])
+    wanted = incisor + limits.gape * direction
+    return wanted - (rotate[:3, :3] @ incisor + rotate[:3, 3])
+
+
+def jaw_matrix(pivot: np.ndarray, axis: np.ndarray, jaw_open: float, jaw_yaw: float, jaw_forward: float,
+               jaw_drop: float, limits: JawLimits = JawLimits(), glide: np.ndarray | None = None) -> np.ndarray:
+    """Jaw pose: pitch about the TMJ axis with the condylar ``glide`` (see :func:`opening_glide`, scaled by
+    the opening), yaw about the vertical through the TMJ midpoint (+ moves the chin to the character's
+    left, +X), then translation (forward is -Y, drop is -Z). Parameters are clamped to their ranges."""
+    jaw_open = float(np.clip(jaw_open, 0.0, 1.0))
+    jaw_yaw = float(np.clip(jaw_yaw, -1.0, 1.0))
+    jaw_forward = float(np.clip(jaw_forward, -1.0, 1.0))
+    jaw_drop = float(np.clip(jaw_drop, -1.0, 1.0))
+    pitch = rotation(axis, np.radians(limits.open_deg) * jaw_open, pivot)
+    yaw = rotation(np.array([0.0, 0.0, 1.0]), np.radians(limits.yaw_deg) * jaw_yaw, pivot)
+    forward = (limits.forward if jaw_forward > 0 else limits.backward) * jaw_forward
+    down = (limits.drop if jaw_drop > 0 else limits.lift) * jaw_drop
+    shift = np.array([0.0, -forward, -down])
+    if glide is not None:
+        shift = shift + np.asarray(glide, np.float64) * jaw_open
+    return translation(shift) @ yaw @ pitch
+
+
+def eye_matrix(centre: np.ndarray, eye_yaw: float, eye_pitch: float) -> np.ndarray:
+    """Gaze: + yaw looks to the character's left (+X), + pitch looks up; about the eyeball centre."""
+    yaw = np.radians(EYE_YAW_DEG) * float(np.clip(eye_yaw, -1, 1))
+    pitch = np.radians(EYE_PITCH_DEG) * float(np.clip(eye_pitch, -1, 1))
+    return rotation(np.array([0.0, 0.0, 1.0]), yaw, centre) @ rotation(np.array([1.0, 0.0, 0.0]), -pitch, centre)
+
+
+def tongue_matrix(jaw: np.ndarray, pivot: np.ndarray, tip_up: float, back: float, out: float,
+                  tip_up_deg: float = 35.0, back_m: float = 0.010, out_m: float = 0.024) -> np.ndarray:
+    """Rigid tongue carried by the jaw: tip raised about a pivot at its root, pulled back, stuck out."""
+    tip_up, back, out = (float(np.clip(v, 0.0, 1.0)) for v in (tip_up, back, out))
+    raise_tip = rotation(np.array([1.0, 0.0, 0.0]), -np.radians(tip_up_deg) * tip_up, pivot)
+    shift = translation(np.array([0.0, back_m * back - out_m * out, -0.004 * out]))
+    return jaw @ shift @ raise_tip
+
+
+def _elevation(points: np.ndarray, centre: np.ndarray) -> np.ndarray:
+    """Angle above the forward (-Y) direction about the eye's horizontal (X) axis."""
+    d = points - centre
+    return np.arctan2(d[:, 2], -d[:, 1])
+
+
+class LidRig:
+    """Eyelids as part of the skin (thesis 3.1.2: "eyes together with the animatable eyelids").
+
+    Lid nodes rotate about the eyeball's horizontal axis, so they slide over the eyeball without entering
+    it. The upper margin closes down to a meeting line a quarter of the way up the fissure, the lower
+    margin rises to it; both follow the gaze pitch (upper 70 %, lower 40 %). Lid skin further from the
+    margin rotates less (weight falling to 0 over ``falloff``), so the lid skin stretches smoothly up to
+    the brow and down to the cheek.
+    """
+    MEETING = 0.25                  # fraction of the fissure the lower lid travels when closing
+    FOLLOW_UPPER, FOLLOW_LOWER = 0.7, 0.4
+
+    def __init__(self, centre: np.ndarray, nodes: np.ndarray, upper_margin: np.ndarray,
+                 lower_margin: np.ndarray, falloff_upper: float = 0.009, falloff_lower: float = 0.006,
+                 radius: float = 0.022, eyeball_radius: float = 0.012, surface: np.ndarray | None = None) -> None:
+        self.centre = np.asarray(centre, np.float64)
+        self.clear_radius = eyeball_radius + 0.0005
+        self.surface = np.ones(len(nodes), bool) if surface is None else np.asarray(surface, bool)
+        nodes = np.asarray(nodes, np.float64)
+        up, low = np.asarray(upper_margin, np.float64), np.asarray(lower_margin, np.float64)
+        self._ux, self._ue = self._curve(up)
+        self._lx, self._le = self._curve(low)
+        x = nodes[:, 0]
+        # beyond the canthi both margins meet: clamp to the corner elevation (np.interp does)
+        theta_u = np.interp(x, self._ux, self._ue)
+        theta_l = np.interp(x, self._lx, self._le)
+        elevation = _elevation(nodes, self.centre)
+        near = np.linalg.norm(nodes - self.centre, axis=1) < radius
+        self.is_upper = elevation > 0.5 * (theta_u + theta_l)
+        d_up = np.min(np.linalg.norm(nodes[:, None] - up[None], axis=2), axis=1)
+        d_low = np.min(np.linalg.norm(nodes[:, None] - low[None], axis=2), axis=1)
+        distance = np.where(self.is_upper, d_up, d_low)
+        falloff = np.where(self.is_upper, falloff_upper, falloff_lower)
+        t = np.clip(1.0 - distance / falloff, 0.0, 1.0)
+        self.weight = np.where(near, t * t * (3 - 2 * t), 0.0)        # smoothstep
+        self.theta_u, self.theta_l = theta_u, theta_l
+        self.index = np.flatnonzero(self.weight > 0)
+
+    def _curve(self, margin: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Margin elevation as a function of x (sorted samples for ``np.interp``)."""
+        order = np.argsort(margin[:, 0], kind="stable")
+        return margin[order, 0], _elevation(margin[order], self.centre)
+
+    def rotations(self, close: float, pitch: float) -> np.ndarray:
+        """Rotation angle (radians, + = up) of every node for lid closure ``close`` and gaze ``pitch``."""
+        close = float(np.clip(close, 0.0, 1.0))
+        gaze = np.radians(EYE_PITCH_DEG) * float(np.clip(pitch, -1.0, 1.0))
+        upper = self.theta_u + self.FOLLOW_UPPER * gaze
+        lower = self.theta_l + self.FOLLOW_LOWER * gaze
+        aperture = np.maximum(upper - lower, 0.0)
+        meeting = lower + self.MEETING * aperture
+        upper_final = upper + close * (meeting - 0.03 - upper)     # a little overlap: closed means closed
+        lower_final = lower + close * (meeting - lower)
+        delta = np.where(self.is_upper, upper_final - self.theta_u, lower_final - self.theta_l)
+        return self.weight * delta
+
+    def rotate(self, rest: np.ndarray, close: float, pitch: float) -> np.ndarray:
+        """Rest positions of all nodes (N,3) rotated by :meth:`rotations` about the eye's X axis."""
+        index = self.index
+        angle = self.rotations(close, pitch)[index]
+        d = rest[index] - self.centre
+        c, s = np.cos(angle), np.sin(angle)
+        # elevation +a about X with forward = -Y: (y, z) -> (y cos a + z sin a, z cos a - y sin a)
+        out = rest.copy()
+        out[index, 1] = self.centre[1] + d[:, 1] * c + d[:, 2] * s
+        out[index, 2] = self.centre[2] + d[:, 2] * c - d[:, 1] * s
+        # a lid sliding down over the cornea must stay outside the eyeball: lift moving surface nodes that
+        # the canonical (flat) lid puts inside the sphere, in proportion to how far they have turned
+        moved = out[index] - self.centre
+        radius = np.linalg.norm(moved, axis=1)
+        lift = np.clip(np.abs(angle) / 0.15, 0.0, 1.0) * self.surface[index]
+        new_radius = radius + lift * np.maximum(self.clear_radius - radius, 0.0)
+        out[index] = self.centre + moved * (new_radius / np.maximum(radius, 1e-12))[:, None]
+        return out

@@ -1,0 +1,257 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The template skin (thesis 3.1.2 "Skin"): the MediaPipe canonical face made animatable.
+
+Stage 1 of the template build ("place landmarks"): the canonical face is one closed disc in which
+triangles cover the mouth opening and both eyes (see ../shared/notes/verified-recipes.md), so lips could
+never part and lids never open. We remove those triangles, give the lips an inner surface that runs back
+into a mouth cavity ("mouth bag", closed at the throat) and give each lid margin a little thickness
+towards the eyeball, then refine: long edges are split once (the forehead triangles of the canonical mesh
+are ~8x larger than the lid triangles) and Loop subdivision smooths the surface. Everything is kept as a
+sparse matrix from the 468 canonical vertices (+ the extruded ones) to the nodes, so the same skin can be
+rebuilt from any warped copy of the canonical face, and every node knows which part of the face it
+belongs to.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import sparse
+
+from ..errors import UserError
+from . import geometry
+
+__all__ = ["SkinMesh", "build_skin", "eyeball_sphere", "RESOLUTIONS"]
+
+#: resolution name -> (edge length above which base edges are split (m), Loop subdivision levels)
+RESOLUTIONS = {"coarse": (0.020, 0), "default": (0.020, 1), "10k": (0.020, 2)}
+
+EYEBALL_RADIUS = 0.012          # m; adult eyeball diameter ~24 mm
+LID_GAP = 0.0008                # lid margin rests this far outside the eyeball surface (tear film, lashes)
+LID_THICKNESS = 0.0022          # lid margin thickness towards the eyeball
+
+# node groups (bit flags); "surface" = the visible outer face
+GROUPS = {"surface": 1, "lip_inner": 2, "mouth_bag": 4, "lid_back": 8, "upper_lip": 16, "lower_lip": 32,
+          "lid_upper_L": 64, "lid_lower_L": 128, "lid_upper_R": 256, "lid_lower_R": 512, "boundary": 1024}
+
+
+@dataclass
+class SkinMesh:
+    """Skin nodes and triangles plus the bookkeeping the rest of the template needs.
+
+    ``basis`` maps base vertices (468 canonical + extruded) to nodes: ``vertices = basis @ base``.
+    ``canonical_node[i]`` is the node that canonical vertex ``i`` became (its index is kept).
+    ``groups`` holds :data:`GROUPS` bit flags per node; ``contours`` named node polylines
+    (lip contours inner/outer, eye margins) in the final mesh.
+    """
+    vertices: np.ndarray
+    faces: np.ndarray
+    basis: sparse.csr_matrix
+    base_vertices: np.ndarray
+    base_faces: np.ndarray
+    groups: np.ndarray
+    contours: dict[str, np.ndarray] = field(default_factory=dict)
+    eye_centres: dict[str, np.ndarray] = field(default_factory=dict)
+    mouth_centre: np.ndarray | None = None
+
+    def group(self, name: str) -> np.ndarray:
+        return (self.groups & GROUPS[name]) != 0
+
+    @property
+    def node_count(self) -> int:
+        return int(self.vertices.shape[0])
+
+
+def eyeball_sphere(margin_points: np.ndarray, radius: float = EYEBALL_RADIUS, gap: float = LID_GAP) -> np.ndarray:
+    """Centre of an eyeball of ``radius`` behind an eye contour: the point straight behind the contour's
+    centroid (+Y is into the head) whose RMS distance to the contour equals ``radius + gap``."""
+    centroid = margin_points.mean(axis=0)
+    target = radius + gap
+    low, high = -0.02, 0.03
+    for _ in range(80):
+        middle = 0.5 * (low + high)
+        centre = centroid + np.array([0.0, middle, 0.0])
+        rms = np.sqrt(np.mean(np.sum((margin_points - centre) ** 2, axis=1)))
+        # moving back increases the distance
+        if rms < target:
+            low = middle
+        else:
+            high = middle
+    return centroid + np.array([0.0, 0.5 * (low + high), 0.0])
+
+
+def _strip(loop_a: np.ndarray, loop_b: np.ndarray, points: list, closed: bool = True) -> list[list[int]]:
+    """Triangles joining ring ``a`` to the parallel ring ``b`` behind it (a's boundary edges run a_i -> a_i+1
+    in the existing faces, so the strip uses them reversed). Each quad is cut along its shorter diagonal,
+    a choice that mirrors with the geometry (the template stays left/right symmetric)."""
+    faces = []
+    count = len(loop_a)
+    for i in range(count if closed else count - 1):
+        j = (i + 1) % count
+        a_i, a_j, b_i, b_j = (int(loop_a[i]), int(loop_a[j]), int(loop_b[i]), int(loop_b[j]))
+        if np.linalg.norm(points[a_j] - points[b_i]) <= np.linalg.norm(points[a_i] - points[b_j]):
+            faces += [[a_j, a_i, b_i], [a_j, b_i, b_j]]
+        else:
+            faces += [[a_j, a_i, b_j], [a_i, b_i, b_j]]
+    return faces
+
+
+def build_skin(canonical_vertices: np.ndarray, canonical_faces: np.ndarray, contours: dict[str, np.ndarray],
+               resolution: str = "default") -> SkinMesh:
+    """Stage 1 of the template: the animatable skin from the canonical face (see the module docstring)."""
+    if resolution not in RESOLUTIONS:
+        raise UserError(f"unknown skin resolution {resolution!r}; use one of {sorted(RESOLUTIONS)}")
+    v = np.asarray(canonical_vertices, np.float64)
+    f = np.asarray(canonical_faces, np.int64)
+    lips_inner = np.concatenate([contours["lips_inner_upper"], contours["lips_inner_lower"][1:-1]])
+    eye = {side: contours[f"eye_{side}"] for side in ("L", "R")}
+    covered = [set(lips_inner.tolist()), set(eye["L"].tolist()), set(eye["R"].tolist())]
+    keep = np.array([not any(set(face.tolist()) <= c for c in covered) for face in f])
+    faces = [list(map(int, face)) for face in f[keep]]
+    loops = geometry.boundary_loops(np.array(faces))
+    by_member = {}
+    for loop in loops:
+        members = set(loop.tolist())
+        if 13 in members:
+            by_member["mouth"] = loop
+        elif 263 in members:
+            by_member["eye_L"] = loop
+        elif 33 in members:
+            by_member["eye_R"] = loop
+        else:
+            by_member.setdefault("outer", loop)
+    if set(by_member) != {"mouth", "eye_L", "eye_R", "outer"}:
+        raise UserError("canonical face: could not find the mouth and eye holes; check the assets")
+    vertices = [p for p in v]
+    groups = [GROUPS["surface"]] * len(v)
+    upper = set(contours["lips_inner_upper"].tolist())
+
+    def add(point, flag):
+        vertices.append(np.asarray(point, np.float64))
+        groups.append(flag)
+        return len(vertices) - 1
+
+    # -- lips: inner surface, then the mouth bag, closed at the throat ---------------------------
+    mouth = by_member["mouth"]
+    centre = 0.5 * (v[13] + v[14])
+    half_width = 0.5 * abs(v[308, 0] - v[78, 0]) + 1e-9
+    is_upper = np.array([i in upper and i not in (78, 308) for i in mouth])
+    is_lower = np.array([i not in upper for i in mouth])
+    sign = np.where(is_upper, 1.0, np.where(is_lower, -1.0, 0.0))
+    ring_specs = [  # (depth behind the lip contour, vertical reach, lateral scale, flags)
+        (0.004, 0.0020, 1.00, GROUPS["lip_inner"]),      # inner surface of the lips
+        (0.0065, 0.0160, 1.15, GROUPS["mouth_bag"]),     # vestibule in front of the teeth, at the gums
+        (0.030, 0.0180, 1.35, GROUPS["mouth_bag"]),      # cheeks, outside the molars
+        (0.052, 0.0160, 1.20, GROUPS["mouth_bag"]),      # behind the last molars
+    ]
+    previous = mouth
+    for depth, reach, lateral, flag in ring_specs:
+        ring = []
+        for k, index in enumerate(mouth):
+            p = v[index]
+            x = centre[0] + (p[0] - centre[0]) * lateral
+            profile = np.sqrt(max(0.0, 1.0 - ((p[0] - centre[0]) / (half_width * 1.05)) ** 2))
+            if flag == GROUPS["lip_inner"]:
+                z = p[2] + sign[k] * reach
+            else:
+                z = centre[2] + sign[k] * reach * (0.25 + 0.75 * profile)
+            extra = GROUPS["upper_lip"] if sign[k] > 0 else GROUPS["lower_lip"] if sign[k] < 0 else 0
+            ring.append(add([x, p[1] + depth, z], flag | extra))
+        faces += _strip(previous, np.array(ring), vertices)
+        previous = np.array(ring)
+    cap = add(centre + np.array([0.0, 0.064, 0.0]), GROUPS["mouth_bag"])
+    for i in range(len(previous)):
+        j = (i + 1) % len(previous)
+        faces.append([int(previous[j]), int(previous[i]), cap])
+
+    # -- eyes: a lid margin with thickness towards the eyeball -----------------------------------
+    eye_centres = {}
+    for side in ("L", "R"):
+        loop = by_member[f"eye_{side}"]
+        centre_eye = eyeball_sphere(v[eye[side]])
+        eye_centres[side] = centre_eye
+        ring = []
+        upper_set = set(contours[f"eye_{side}_upper"].tolist())
+        for index in loop:
+            p = v[index]
+            inward = centre_eye - p
+            inward /= np.linalg.norm(inward)
+            lid = GROUPS[f"lid_upper_{side}"] if index in upper_set else GROUPS[f"lid_lower_{side}"]
+            ring.append(add(p + inward * LID_THICKNESS, GROUPS["lid_back"] | lid))
+        faces += _strip(loop, np.array(ring), vertices, closed=True)
+        # the ring's far side stays open: the eyeball fills it
+
+    base_vertices = np.array(vertices)
+    base_faces = np.array(faces, np.int64)
+    base_groups = np.array(groups, np.int64)
+    for side in ("L", "R"):
+        for part in ("upper", "lower"):
+            ids = contours[f"eye_{side}_{part}"]
+            base_groups[ids] |= GROUPS[f"lid_{part}_{side}"]
+    base_groups[contours["lips_inner_upper"]] |= GROUPS["upper_lip"]
+    base_groups[contours["lips_inner_lower"]] |= GROUPS["lower_lip"]
+    base_groups[by_member["outer"]] |= GROUPS["boundary"]
+
+    # -- refinement: split long edges once, then Loop subdivision --------------------------------
+    max_edge, levels = RESOLUTIONS[resolution]
+    basis = sparse.identity(len(base_vertices), format="csr")
+    current_faces = base_faces
+    current_groups = base_groups
+    for step in range(1 + levels):
+        if step == 0:
+            matrix, current_faces = geometry.split_long_edges(basis @ base_vertices, current_faces, max_edge)
+        else:
+            matrix, current_faces = geometry.loop_subdivision(basis.shape[0], current_faces)
+        current_groups = _propagate_groups(matrix, current_groups)
+        basis = (matrix @ basis).tocsr()
+    basis.eliminate_zeros()
+    nodes = basis @ base_vertices
+    skin = SkinMesh(vertices=nodes, faces=current_faces, basis=basis, base_vertices=base_vertices,
+                    base_faces=base_faces, groups=current_groups, eye_centres=eye_centres,
+                    mouth_centre=centre)
+    skin.contours = _trace_contours(skin, contours)
+    return skin
+
+
+def _propagate_groups(matrix: sparse.csr_matrix, groups: np.ndarray) -> np.ndarray:
+    """Group flags of refined nodes: kept for old vertices; an edge node gets the flags its two parent
+    vertices share (found from the two largest weights of its row)."""
+    matrix = matrix.tocsr()
+    out = np.zeros(matrix.shape[0], np.int64)
+    old = matrix.shape[1]
+    out[:old] = groups
+    for row in range(old, matrix.shape[0]):
+        start, end = matrix.indptr[row], matrix.indptr[row + 1]
+        cols, weights = matrix.indices[start:end], matrix.data[start:end]
+        order = np.argsort(-weights, kind="stable")[:2]
+        out[row] = groups[cols[order[0]]] & groups[cols[order[1]]]
+    return out
+
+
+def _trace_contours(skin: SkinMesh, contours: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Node polylines of the canonical contours in the refined mesh: each canonical segment a-b becomes the
+    shortest mesh path between the two kept nodes (subdivision keeps canonical indices)."""
+    from scipy.sparse.csgraph import dijkstra
+
+    edges = geometry.unique_edges(skin.faces)
+    length = np.linalg.norm(skin.vertices[edges[:, 1]] - skin.vertices[edges[:, 0]], axis=1)
+    n = skin.node_count
+    graph = sparse.csr_matrix((np.r_[length, length], (np.r_[edges[:, 0], edges[:, 1]],
+                                                        np.r_[edges[:, 1], edges[:, 0]])), shape=(n, n))
+    out = {}
+    for name in ("lips_inner_upper", "lips_inner_lower", "lips_outer_upper", "lips_outer_lower",
+                 "eye_L_upper", "eye_L_lower", "eye_R_upper", "eye_R_lower", "eyebrow_L_upper",
+                 "eyebrow_R_upper", "face_oval"):
+        ids = [int(i) for i in contours[name]]
+        if name == "face_oval":
+            ids = ids + ids[:1]
+        path = [ids[0]]
+        for a, b in zip(ids[:-1], ids[1:]):
+            _, pred = dijkstra(graph, indices=a, return_predecessors=True, limit=0.05)
+            segment, node = [], b
+            while node != a and node >= 0:
+                segment.append(node)
+                node = pred[node]
+            path += segment[::-1]
+        out[name] = np.array(path, np.int64)
+    return out
