@@ -8,6 +8,7 @@ import only morph targets see teeth, tongue and eyes move too. Part objects keep
 from __future__ import annotations
 
 import numpy as np
+from mathutils import Matrix
 
 from . import bl_anim, bl_controls
 from .bl_face import PART_ROLE, SIM_KEY, parts
@@ -68,7 +69,7 @@ def _sum_driver(block, obj, control: str) -> None:
 
 def reset_part_transforms(obj) -> None:
     for part in parts(obj).values():
-        part.matrix_basis = [[float(i == j) for j in range(4)] for i in range(4)]
+        part.matrix_basis = Matrix.Identity(4)
 
 
 def commit_shapes(obj, shapes, drive: bool) -> list[str]:

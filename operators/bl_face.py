@@ -15,6 +15,7 @@ import tempfile
 
 import bpy
 import numpy as np
+from mathutils import Matrix
 
 from ..faces_hands_addon.errors import UserError
 from . import bl_controls
@@ -235,7 +236,7 @@ def push_pose(obj, rig, positions=None) -> None:
     transforms = rig.rigid_transforms()
     for role, part in parts(obj).items():
         if role in transforms:
-            part.matrix_basis = [list(row) for row in np.asarray(transforms[role])]
+            part.matrix_basis = Matrix(np.asarray(transforms[role], dtype=float).tolist())
         elif role == "muscles":
             vertices, _edges, contraction = muscle_display_arrays(rig)
             if len(vertices) == len(part.data.vertices):
