@@ -6,10 +6,12 @@ Prints, per resolution: nodes and springs, the substeps per frame the stability 
 steps per second, and simulated frames per second while the controls change every frame (the live preview
 case: muscles, jaw and lids all animated). Ends with one ``RESULT key=value ...`` line.
 
-Run: ``make bench`` (installed extension), or ``FH_TEST_FROM_SOURCE=1 python bench/face_sim.py`` from the
-repository root (working tree, no bpy needed). Structured for the Blender half: :func:`engine_figures` returns the numbers; a Cloth comparison and the
-cost of pushing positions into a mesh (both need ``bpy``) can be measured elsewhere and passed to
-:func:`result_line` as ``cloth_ms`` (per frame, 10k-node mesh) and ``push_ms``.
+Run: ``make bench`` (installed extension, inside the bpy module), or ``FH_TEST_FROM_SOURCE=1 python
+bench/face_sim.py`` from the repository root (working tree, engine figures only). With bpy it also measures,
+in the same run: Blender's Cloth modifier (default quality) on the same 10k-node mesh for the same number
+of frames (``cloth_ratio`` = Cloth ms per frame / our ms per frame), the cost of pushing 10k positions into
+a shape key (``push_ms``), and the whole live-preview step of the default head inside Blender (controls
+read from the rig object, simulate, push skin + eyes/jaw/teeth/tongue + muscle display).
 """
 from __future__ import annotations
 
@@ -84,6 +86,61 @@ def result_line(default: dict, dense: dict, cloth_ms: float | None = None, push_
     return "RESULT " + " ".join(parts)
 
 
+def cloth_ms_per_frame(rig, frames: int = 24) -> float:
+    """Blender's own mass-spring solver on the same skin mesh: a Cloth modifier at default settings
+    (quality 5), timed over ``frames`` frames of its simulation."""
+    import bpy
+    bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
+    mesh = bpy.data.meshes.new("ClothBench")
+    mesh.from_pydata(rig.rest_positions.tolist(), [], rig.faces.tolist())
+    obj = bpy.data.objects.new("ClothBench", mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    cloth = obj.modifiers.new("Cloth", "CLOTH")
+    cloth.point_cache.frame_start, cloth.point_cache.frame_end = 1, frames + 1
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = 1, frames + 1
+    scene.frame_set(1)
+    started = time.perf_counter()
+    for frame in range(2, frames + 2):
+        scene.frame_set(frame)
+        obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
+    return 1e3 * (time.perf_counter() - started) / frames
+
+
+def push_ms(rig, repeats: int = 200) -> float:
+    """Positions (N, 3) float32 -> a shape key of an N-vertex mesh, the live preview's write path."""
+    import bpy
+    mesh = bpy.data.meshes.new("PushBench")
+    mesh.from_pydata(rig.rest_positions.tolist(), [], rig.faces.tolist())
+    obj = bpy.data.objects.new("PushBench", mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    obj.shape_key_add(name="Basis")
+    key = obj.shape_key_add(name="FH Simulation")
+    positions = np.ascontiguousarray(rig.positions, dtype=np.float32).ravel()
+    started = time.perf_counter()
+    for _ in range(repeats):
+        key.points.foreach_set("co", positions)
+        mesh.update()
+    return 1e3 * (time.perf_counter() - started) / repeats
+
+
+def live_preview_fps(frames: int = 96) -> tuple[float, int]:
+    """The add-on's live step on the default head in Blender (read controls, simulate, push everything)."""
+    import bpy
+    ops_face = _harness.EXTENSION.operators.ops_face
+    bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
+    bpy.ops.faces_hands.build_face_rig()
+    obj = bpy.context.active_object
+    for frame in range(3):
+        ops_face.live_step(bpy.context, obj, FRAME_DT)
+    started = time.perf_counter()
+    for frame in range(frames):
+        for name, value in _animated_controls(frame).items():
+            obj[f"fh.ctrl.{name}"] = float(value)
+        ops_face.live_step(bpy.context, obj, FRAME_DT)
+    return frames / (time.perf_counter() - started), len(obj.data.vertices)
+
+
 def main() -> None:
     figures = {}
     for resolution in ("default", "10k"):
@@ -93,7 +150,21 @@ def main() -> None:
               f"guard substeps/frame at {1 / FRAME_DT:.0f} fps: {f['substeps']}; "
               f"{f['step_ms']:.3f} ms/step ({f['steps_per_s']:.0f} steps/s); "
               f"animated frame {f['frame_ms']:.2f} ms ({f['sim_fps']:.0f} simulated frames/s)")
-    print(result_line(figures["default"], figures["10k"]))
+    if os.environ.get("FH_TEST_FROM_SOURCE") == "1":
+        print(result_line(figures["default"], figures["10k"]))
+        return
+    dense_rig = build_default_rig("10k")
+    cloth = cloth_ms_per_frame(dense_rig)
+    print(f"Blender Cloth modifier (default quality) on the same {len(dense_rig.rest_positions)}-vertex mesh: "
+          f"{cloth:.1f} ms/frame; ours {figures['10k']['frame_ms']:.2f} ms/frame -> "
+          f"{cloth / figures['10k']['frame_ms']:.1f}x faster")
+    push = push_ms(dense_rig)
+    print(f"push {len(dense_rig.rest_positions)} positions into a shape key: {push:.3f} ms/frame")
+    live_fps, vertices = live_preview_fps()
+    print(f"live preview in Blender, default head ({vertices} vertices, everything pushed): "
+          f"{live_fps:.0f} frames/s (goal >= 30)")
+    line = result_line(figures["default"], figures["10k"], cloth_ms=cloth, push_ms=push)
+    print(line.replace("RESULT live_fps=", f"RESULT live_fps={live_fps:.1f} engine_fps=", 1))
 
 
 if __name__ == "__main__":
