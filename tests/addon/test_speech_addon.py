@@ -96,3 +96,51 @@ def test_corrupt_audio_changes_nothing(bpy_clean, tmp_path):
     with pytest.raises(RuntimeError):
         bpy.ops.faces_hands.lipsync_audio(filepath=str(bad), transcript="hello")
     assert obj.data.shape_keys.animation_data is None
+
+
+def _speech_curves(rig):
+    anim = rig.animation_data
+    if anim is None or anim.action is None:
+        return {}
+    bag = anim.action.layers[0].strips[0].channelbag(anim.action_slot)
+    return {fc.data_path: fc for fc in bag.fcurves}
+
+
+def test_speak_on_face_rig_writes_speech_layer_and_keeps_artist_keys(bpy_clean):
+    bpy = bpy_clean
+    scene = bpy.context.scene
+    scene.render.fps, scene.render.fps_base = 25, 1.0
+    scene.frame_start = 1
+    assert bpy.ops.faces_hands.build_face_rig() == {"FINISHED"}
+    rig = bpy.context.active_object
+    rig["fh.ctrl.zygomaticus_major_L"] = 0.4
+    rig.keyframe_insert('["fh.ctrl.zygomaticus_major_L"]', frame=3)
+    assert bpy.ops.faces_hands.speak_text(text="Peter picked a pepper.") == {"FINISHED"}
+    curves = _speech_curves(rig)
+    speech = [p for p in curves if p.startswith('["fh.speech.')]
+    assert '["fh.speech.jaw_open"]' in speech and '["fh.speech.orbicularis_oris_upper"]' in speech
+    assert '["fh.ctrl.zygomaticus_major_L"]' in curves
+    first = curves['["fh.speech.jaw_open"]'].keyframe_points[0].co[0]
+    assert first == pytest.approx(1.0, abs=0.5)
+    upper = np.array([k.co[1] for k in curves['["fh.speech.orbicularis_oris_upper"]'].keyframe_points])
+    assert upper.max() > 0.5, "the /p/ closures never contract the lips"
+    count = len(speech)
+    assert bpy.ops.faces_hands.speak_text(text="Hello.") == {"FINISHED"}
+    curves = _speech_curves(rig)
+    assert len([p for p in curves if p.startswith('["fh.speech.')]) == count
+    assert '["fh.ctrl.zygomaticus_major_L"]' in curves
+    assert len(scene.sequence_editor.strips) == 1
+
+
+def test_zero_length_audio_is_a_clear_error(bpy_clean, tmp_path):
+    bpy = bpy_clean
+    import wave
+    empty = tmp_path / "empty.wav"
+    with wave.open(str(empty), "wb") as handle:
+        handle.setnchannels(1)
+        handle.setsampwidth(2)
+        handle.setframerate(16000)
+    obj = _viseme_mesh(bpy)
+    with pytest.raises(RuntimeError, match="(?i)empty|no audio|too short|zero"):
+        bpy.ops.faces_hands.lipsync_audio(filepath=str(empty), transcript="hello")
+    assert obj.data.shape_keys.animation_data is None
