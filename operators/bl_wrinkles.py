@@ -14,8 +14,13 @@ import numpy as np
 
 from . import bl_controls
 
-#: region -> (wave direction in object space, bands per metre, depth)
-PATTERNS = {"forehead": ("Z", 160.0, 1.0), "brow_furrow": ("X", 260.0, 1.0), "nose_bridge": ("Z", 300.0, 0.6)}
+#: region -> (wave direction in object space, furrow spacing in metres, bump strength at full contraction)
+PATTERNS = {"forehead": ("Z", 0.03, 1.4), "brow_furrow": ("X", 0.014, 0.8), "nose_bridge": ("Z", 0.01, 0.5)}
+
+
+def _wave_scale(spacing: float) -> float:
+    """Blender's band wave has period 2 pi / (10 * scale) in texture space."""
+    return 2.0 * 3.141592653589793 / (10.0 * spacing)
 
 
 def _mask_attribute(mesh, region: str, weights: np.ndarray) -> str:
@@ -49,7 +54,11 @@ def _strength_driver(socket, obj, drivers) -> None:
 
 
 def setup_wrinkle_material(obj, masks: dict[str, np.ndarray], drivers_by_region: dict) -> bpy.types.Material:
-    """Give ``obj`` its own skin material with driven wrinkle bumps (replacing slot 0's material)."""
+    """Give ``obj`` its own skin material with driven wrinkle bumps (replacing slot 0's material).
+
+    One Bump node per region, chained through their Normal inputs: Height is the furrow pattern (smooth,
+    so no triangle edges show), Strength is mask attribute x driven strength, so a relaxed muscle or a
+    vertex outside the region leaves the normal untouched."""
     base = obj.data.materials[0] if obj.data.materials else None
     mat = base.copy() if base is not None else bpy.data.materials.new(f"{obj.name} Skin")
     mat.name = f"{obj.name} Skin"
@@ -62,52 +71,47 @@ def setup_wrinkle_material(obj, masks: dict[str, np.ndarray], drivers_by_region:
     nodes, links = mat.node_tree.nodes, mat.node_tree.links
     bsdf = nodes.get("Principled BSDF")
     coords = nodes.new("ShaderNodeTexCoord")
-    total = None
+    coords.location = (-1300, 0)
+    previous_normal = None
     for row, (region, weights) in enumerate(masks.items()):
         if region not in drivers_by_region:
             continue
-        axis, bands, depth = PATTERNS.get(region, ("Z", 200.0, 1.0))
+        axis, spacing, depth = PATTERNS.get(region, ("Z", 0.006, 0.8))
+        y = -320 * row
         attribute = nodes.new("ShaderNodeAttribute")
         attribute.attribute_name = _mask_attribute(obj.data, region, weights)
-        attribute.location = (-900, -300 * row)
+        attribute.location = (-1000, y)
         wave = nodes.new("ShaderNodeTexWave")
         wave.wave_type = "BANDS"
         wave.bands_direction = axis
-        wave.inputs["Scale"].default_value = bands * 0.1
-        wave.location = (-900, -300 * row - 150)
+        wave.inputs["Scale"].default_value = _wave_scale(spacing)
+        wave.inputs["Distortion"].default_value = 0.0
+        wave.location = (-1000, y - 160)
         links.new(coords.outputs["Object"], wave.inputs["Vector"])
         strength = nodes.new("ShaderNodeValue")
         strength.label = f"wrinkles {region}"
         strength.name = f"FH wrinkle {region}"
-        strength.location = (-700, -300 * row - 100)
+        strength.location = (-800, y + 80)
         _strength_driver(strength.outputs[0], obj, drivers_by_region[region])
-        masked = nodes.new("ShaderNodeMath")
-        masked.operation = "MULTIPLY"
-        links.new(attribute.outputs["Fac"], masked.inputs[0])
-        links.new(wave.outputs["Fac"], masked.inputs[1])
+        weighted = nodes.new("ShaderNodeMath")
+        weighted.operation = "MULTIPLY"
+        weighted.location = (-600, y)
+        links.new(attribute.outputs["Fac"], weighted.inputs[0])
+        links.new(strength.outputs[0], weighted.inputs[1])
         scaled = nodes.new("ShaderNodeMath")
         scaled.operation = "MULTIPLY"
-        links.new(masked.outputs[0], scaled.inputs[0])
-        links.new(strength.outputs[0], scaled.inputs[1])
-        if depth != 1.0:
-            scaled_depth = nodes.new("ShaderNodeMath")
-            scaled_depth.operation = "MULTIPLY"
-            scaled_depth.inputs[1].default_value = depth
-            links.new(scaled.outputs[0], scaled_depth.inputs[0])
-            scaled = scaled_depth
-        if total is None:
-            total = scaled
-        else:
-            adder = nodes.new("ShaderNodeMath")
-            adder.operation = "ADD"
-            links.new(total.outputs[0], adder.inputs[0])
-            links.new(scaled.outputs[0], adder.inputs[1])
-            total = adder
-    if total is not None and bsdf is not None:
+        scaled.inputs[1].default_value = depth
+        scaled.location = (-450, y)
+        links.new(weighted.outputs[0], scaled.inputs[0])
         bump = nodes.new("ShaderNodeBump")
-        bump.name = "FH wrinkle bump"
-        bump.inputs["Strength"].default_value = 0.6
-        bump.inputs["Distance"].default_value = 0.0015
-        links.new(total.outputs[0], bump.inputs["Height"])
-        links.new(bump.outputs["Normal"], bsdf.inputs["Normal"])
+        bump.name = f"FH wrinkle bump {region}"
+        bump.location = (-250, y)
+        bump.inputs["Distance"].default_value = 0.0008
+        links.new(scaled.outputs[0], bump.inputs["Strength"])
+        links.new(wave.outputs["Fac"], bump.inputs["Height"])
+        if previous_normal is not None:
+            links.new(previous_normal, bump.inputs["Normal"])
+        previous_normal = bump.outputs["Normal"]
+    if previous_normal is not None and bsdf is not None:
+        links.new(previous_normal, bsdf.inputs["Normal"])
     return mat
