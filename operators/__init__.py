@@ -3,7 +3,7 @@
 
 ``CLASSES`` and ``HANDLERS`` are what the extension root registers through ``registry``.
 """
-from . import ops_face, ops_info, ops_speech
+from . import ops_face, ops_fit, ops_info, ops_speech
 
-CLASSES = [*ops_info.CLASSES, *ops_face.CLASSES, *ops_speech.CLASSES]
+CLASSES = [*ops_info.CLASSES, *ops_face.CLASSES, *ops_fit.CLASSES, *ops_speech.CLASSES]
 HANDLERS = []

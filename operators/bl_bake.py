@@ -11,7 +11,7 @@ import numpy as np
 from mathutils import Matrix
 
 from . import bl_anim, bl_controls
-from .bl_face import PART_ROLE, SIM_KEY, parts
+from .bl_face import PART_ROLE, SIM_KEY, parts, skin_to_local
 
 MOVED_EPS = 1e-6
 
@@ -72,7 +72,7 @@ def reset_part_transforms(obj) -> None:
         part.matrix_basis = Matrix.Identity(4)
 
 
-def commit_shapes(obj, shapes, drive: bool) -> list[str]:
+def commit_shapes(obj, shapes, drive: bool, rig=None) -> list[str]:
     """Write ``shapes`` (BakedShape) onto the skin and the parts; with ``drive`` (basis mode) each key is
     driven by its control. Returns the key names written."""
     reset_part_transforms(obj)
@@ -83,7 +83,8 @@ def commit_shapes(obj, shapes, drive: bool) -> list[str]:
     if sim is not None:
         sim.value = 0.0
     for shape in shapes:
-        block = write_key(obj, shape.name, shape.positions, shape.value_range)
+        positions = skin_to_local(obj, rig, shape.positions) if rig is not None else shape.positions
+        block = write_key(obj, shape.name, positions, shape.value_range)
         block.value = 0.0
         if drive and shape.control:
             _sum_driver(block, obj, shape.control)
@@ -99,10 +100,10 @@ def commit_shapes(obj, shapes, drive: bool) -> list[str]:
     return names
 
 
-def commit_animation(obj, shapes, scene) -> list[str]:
+def commit_animation(obj, shapes, scene, rig=None) -> list[str]:
     """Per-frame keys animated 0 -> 1 -> 0, so each frame shows exactly its simulated pose. The live
     simulation key and driven basis keys are muted so nothing is added twice."""
-    names = commit_shapes(obj, shapes, drive=False)
+    names = commit_shapes(obj, shapes, drive=False, rig=rig)
     frames = [int(name.rsplit("_", 1)[1]) for name in names]
     for target in [obj, *[p for p in parts(obj).values() if p.get(PART_ROLE) != "muscles"]]:
         key = target.data.shape_keys

@@ -24,6 +24,7 @@ from .bl_mesh import mesh_from_arrays
 RIG_MARKER = "fh_rig"
 RIG_DATA = "fh_rig_data"
 RIG_CONTROLS = "fh_rig_controls"   # JSON: [[name, region, kind], ...] for the panel (no engine needed)
+HEAD_TO_LOCAL = "fh_head_to_local"  # 16 floats (row-major): engine head space -> the skin's local space
 SIM_KEY = "FH Simulation"
 PART_ROLE = "fh_part"        # on every part object: "skull", "jaw", "eye_L", ..., "muscles"
 
@@ -216,6 +217,23 @@ def parts(obj) -> dict[str, bpy.types.Object]:
 
 
 # ---------------------------------------------------------------------------- pushing a pose
+def head_to_local(obj, rig) -> np.ndarray:
+    """4x4 from the rig's head space to ``obj``'s local coordinates (identity for the default head)."""
+    stored = obj.get(HEAD_TO_LOCAL)
+    if stored is not None and len(stored) == 16:
+        return np.array(stored, dtype=np.float64).reshape(4, 4)
+    return np.asarray(getattr(rig, "head_to_mesh", np.eye(4)), dtype=np.float64)
+
+
+def skin_to_local(obj, rig, positions) -> np.ndarray:
+    """Skin positions from head space into the skin object's local space, float32 for foreach_set."""
+    matrix = head_to_local(obj, rig)
+    positions = np.asarray(positions, dtype=np.float64)
+    if np.abs(matrix - np.eye(4)).max() < 1e-12:
+        return np.ascontiguousarray(positions, dtype=np.float32)
+    return np.ascontiguousarray(positions @ matrix[:3, :3].T + matrix[:3, 3], dtype=np.float32)
+
+
 def simulation_key(obj):
     """The dedicated shape key the live simulation writes (created with a Basis if needed)."""
     if obj.data.shape_keys is None:
@@ -231,7 +249,7 @@ def push_pose(obj, rig, positions=None) -> None:
     """Write skin positions into the simulation key and move eyes, jaw, teeth, tongue and muscles."""
     key = simulation_key(obj)
     positions = rig.positions if positions is None else positions
-    key.points.foreach_set("co", np.ascontiguousarray(positions, dtype=np.float32).ravel())
+    key.points.foreach_set("co", skin_to_local(obj, rig, positions).ravel())
     obj.data.update()
     transforms = rig.rigid_transforms()
     for role, part in parts(obj).items():

@@ -20,6 +20,10 @@ from . import bl_face, bl_render
 
 Cell = tuple[str, dict]
 
+#: contact-sheet camera azimuths (degrees about Z; the face looks along -Y, the side view looks at the
+#: character's left cheek): lip protrusion can only be judged from the side
+VIEWS = {"front": 0.0, "three-quarter": 45.0, "side": 90.0}
+
 
 def expression_cells(rig, include=("neutral", "muscles", "direct", "arkit", "visemes")) -> list[Cell]:
     """Neutral, each muscle at full contraction, each direct parameter at full value, ARKit and visemes."""
@@ -42,7 +46,7 @@ def expression_cells(rig, include=("neutral", "muscles", "direct", "arkit", "vis
     return cells
 
 
-def _label_object(collection, text: str, location, size: float):
+def _label_object(collection, text: str, location, size: float, azimuth: float = 0.0):
     curve = bpy.data.curves.new("FH Sheet Label", "FONT")
     curve.body = text
     curve.size = size
@@ -50,7 +54,7 @@ def _label_object(collection, text: str, location, size: float):
     label = bpy.data.objects.new("FH Sheet Label", curve)
     collection.objects.link(label)
     label.location = location
-    label.rotation_euler = (math.pi / 2, 0.0, 0.0)  # readable from the front camera (-Y)
+    label.rotation_euler = (math.pi / 2, 0.0, azimuth)  # readable from the camera
     material = bpy.data.materials.get("FH Sheet Label") or bpy.data.materials.new("FH Sheet Label")
     material.diffuse_color = (0.05, 0.05, 0.05, 1.0)
     curve.materials.append(material)
@@ -81,8 +85,10 @@ def write_png(array: np.ndarray, path: Path) -> None:
 
 
 def render_sheet(context, obj, cells: list[Cell], out_path, cell_size=(220, 250), columns: int = 8,
-                 progress: Callable[[float, str], None] | None = None, settle_time: float = 1.2) -> Path:
-    """Render one cell per (label, controls) and compose them row by row into ``out_path`` (PNG)."""
+                 progress: Callable[[float, str], None] | None = None, settle_time: float = 1.2,
+                 view: str = "front") -> Path:
+    """Render one cell per (label, controls) and compose them row by row into ``out_path`` (PNG), seen
+    from ``view`` (a key of :data:`VIEWS`)."""
     from ..faces_hands_addon.face import baking
     rig = bl_face.get_rig(obj)
     scene = context.scene
@@ -95,14 +101,18 @@ def render_sheet(context, obj, cells: list[Cell], out_path, cell_size=(220, 250)
     world = rig.rest_positions @ matrix[:3, :3].T + matrix[:3, 3]
     low, high = world.min(axis=0), world.max(axis=0)
     height = float(high[2] - low[2])
-    label = _label_object(scene.collection, "", ((low[0] + high[0]) / 2, low[1] - 0.02, low[2] - 0.09 * height),
-                          0.085 * height)
+    azimuth = math.radians(VIEWS[view])
+    centre = (low + high) / 2
+    front = np.array([0.0, low[1] - 0.02 - centre[1]])  # the label stands in front of the head, facing the camera
+    turned = np.array([[math.cos(azimuth), -math.sin(azimuth)], [math.sin(azimuth), math.cos(azimuth)]]) @ front
+    label = _label_object(scene.collection, "", (centre[0] + turned[0], centre[1] + turned[1],
+                                                 low[2] - 0.09 * height), 0.085 * height, azimuth)
     tmp_dir = Path(tempfile.mkdtemp(prefix="fh-sheet-"))
     tiles = []
     label.data.body = "neutral"
     bl_render.setup_workbench(scene, cell_size)
     margin_below = 0.22 * height  # room for the label under the chin
-    bl_render.frame_camera(scene, visible, margin=1.08,
+    bl_render.frame_camera(scene, visible, azimuth_deg=VIEWS[view], margin=1.08,
                            bounds=(low - np.array([0.0, 0.0, margin_below]), high))
     try:
         for index, (name, controls) in enumerate(cells):

@@ -119,6 +119,8 @@ class Render:
                                  "muscles: neutral, muscles and direct parameters only")
         parser.add_argument("--rig", help="name of the rig object when the file has several")
         parser.add_argument("--columns", type=int, default=10)
+        parser.add_argument("--view", choices=tuple(bl_sheet.VIEWS), default="front",
+                            help="camera: front (default), three-quarter or side")
         parser.add_argument("--out", required=True, help="output .png")
 
     @staticmethod
@@ -135,6 +137,7 @@ class Render:
         include = ("neutral", "muscles", "direct") + (("arkit", "visemes") if args.sheet == "expressions" else ())
         cells = bl_sheet.expression_cells(rig, include)
         with atomic_output(out) as tmp:
-            bl_sheet.render_sheet(bpy.context, rig_obj, cells, tmp, columns=args.columns, progress=progress)
+            bl_sheet.render_sheet(bpy.context, rig_obj, cells, tmp, columns=args.columns, progress=progress,
+                                  view=args.view)
         print(written([out]))
         return 0

@@ -28,6 +28,8 @@ def _common_arguments(parser) -> None:
     parser.add_argument("--rig", help="a .blend with a face rig (default: the default head)")
     parser.add_argument("--fps", type=float, default=30.0, help="frame rate of the animation (default 30)")
     parser.add_argument("--sheet", help="also write a contact sheet of the frames at phoneme centres (.png)")
+    parser.add_argument("--view", choices=tuple(bl_sheet.VIEWS), default="front",
+                        help="camera of the contact sheet (default front; side shows lip protrusion)")
     parser.add_argument("--jobs", help="CSV with one line per take (columns: out, and text or audio "
                                        "[+ transcript], optional voice); replaces the single-line options")
 
@@ -77,7 +79,8 @@ def phoneme_cells(take, limit: int = 40) -> list:
     return cells[:limit]
 
 
-def _write_outputs(rig_obj, take, out: Path, sheet: Path | None, progress, source_audio=None) -> list[Path]:
+def _write_outputs(rig_obj, take, out: Path, sheet: Path | None, progress, source_audio=None,
+                   view: str = "front") -> list[Path]:
     from ..faces_hands_addon.speech import load_audio, save_wav
     paths = []
     wav = out.with_suffix(".wav")
@@ -95,7 +98,8 @@ def _write_outputs(rig_obj, take, out: Path, sheet: Path | None, progress, sourc
     paths.append(wav)
     if sheet is not None:
         with atomic_output(sheet) as tmp:
-            bl_sheet.render_sheet(bpy.context, rig_obj, phoneme_cells(take), tmp, columns=8, progress=progress)
+            bl_sheet.render_sheet(bpy.context, rig_obj, phoneme_cells(take), tmp, columns=8, progress=progress,
+                                  view=view)
         paths.append(sheet)
     return paths
 
@@ -105,6 +109,9 @@ def run_line(spec: dict, rig_path, fps, progress) -> list[Path]:
     from ..faces_hands_addon.speech.takes import take_from_audio, take_from_text
     out = check_output_path(spec["out"], OUT_SUFFIXES)
     sheet = check_output_path(spec["sheet"], (".png",)) if spec.get("sheet") else None
+    view = spec.get("view") or "front"
+    if view not in bl_sheet.VIEWS:
+        raise UserError(f"unknown sheet view {view!r}; use one of {', '.join(bl_sheet.VIEWS)}")
     if spec.get("audio"):
         audio = Path(spec["audio"])
         if not audio.is_file():
@@ -118,7 +125,7 @@ def run_line(spec: dict, rig_path, fps, progress) -> list[Path]:
                               rate=float(spec.get("rate") or 175), fps=fps, target="muscles", progress=progress)
     rig_obj = _prepare_rig(rig_path, fps, progress)
     _bake_take(rig_obj, take, progress)
-    return _write_outputs(rig_obj, take, out, sheet, progress, spec.get("audio"))
+    return _write_outputs(rig_obj, take, out, sheet, progress, spec.get("audio"), view)
 
 
 def read_jobs(path: str) -> list[dict]:
@@ -177,7 +184,8 @@ class Speak:
             return run_jobs(read_jobs(args.jobs), args.rig, args.fps, progress)
         if args.text is None or args.out is None:
             raise UserError("give --text and --out (or --jobs FILE.csv)")
-        spec = {"text": args.text, "voice": args.voice, "rate": args.rate, "out": args.out, "sheet": args.sheet}
+        spec = {"text": args.text, "voice": args.voice, "rate": args.rate, "out": args.out, "sheet": args.sheet,
+                "view": args.view}
         print(written(run_line(spec, args.rig, args.fps, progress)))
         return 0
 
@@ -201,7 +209,7 @@ class LipSync:
         if args.audio is None or args.out is None:
             raise UserError("give --audio and --out (or --jobs FILE.csv)")
         spec = {"audio": args.audio, "transcript": args.transcript, "voice": args.language, "out": args.out,
-                "sheet": args.sheet}
+                "sheet": args.sheet, "view": args.view}
         print(written(run_line(spec, args.rig, args.fps, progress)))
         return 0
 

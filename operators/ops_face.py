@@ -213,9 +213,9 @@ class BakeJob(Job):
         obj = bpy.data.objects[self.obj_name]
         if self.mode == "ANIMATION":
             bl_bake.remove_keys(obj, "FH.frame_")
-            names = bl_bake.commit_animation(obj, self.shapes, context.scene)
+            names = bl_bake.commit_animation(obj, self.shapes, context.scene, self.rig)
         else:
-            names = bl_bake.commit_shapes(obj, self.shapes, drive=self.mode == "BASIS")
+            names = bl_bake.commit_shapes(obj, self.shapes, drive=self.mode == "BASIS", rig=self.rig)
         return f"Baked {len(names)} shape keys on '{obj.name}'"
 
 
