@@ -57,9 +57,22 @@ def pytest_collection_modifyitems(config, items):
                 item.add_marker(skip)
 
 
+_exit_status = {"code": None}
+
+
+def pytest_sessionfinish(session, exitstatus):
+    _exit_status["code"] = int(exitstatus)
+
+
 def pytest_unconfigure(config):
+    """Clean up, then leave without running bpy's atexit teardown: the bpy 4.5 module can hang forever
+    in a destructor at interpreter exit (seen here: GlobalState::~GlobalState waiting on its thread)."""
     if Installed.user_dir and Installed.user_dir.exists():
         shutil.rmtree(Installed.user_dir, ignore_errors=True)
+    if "bpy" in sys.modules and _exit_status["code"] is not None:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(_exit_status["code"])
 
 
 @pytest.fixture(scope="session")
