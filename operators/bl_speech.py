@@ -5,7 +5,8 @@ Two kinds of target object:
 
 * a face rig (object with the ``fh_rig`` marker): the take's control tracks go to the rig's speech
   layer ``["fh.speech.<control>"]`` (see ``bl_controls``);
-* any mesh with Meta/Oculus viseme shape keys (``viseme_sil`` ... ``viseme_U``): the take's viseme
+* any mesh with Meta/Oculus viseme shape keys (``viseme_sil`` ... ``viseme_ou``, or the Ready Player Me
+  spellings ``viseme_I/O/U``): the take's viseme
   weights animate those shape keys, so characters without a muscle rig lip-sync too.
 
 Everything is computed before anything is written; writing replaces the previous take (its curves and
@@ -22,6 +23,7 @@ import numpy as np
 
 from ..faces_hands_addon.errors import UserError
 from ..faces_hands_addon.speech import VISEMES, save_wav
+from ..faces_hands_addon.speech.phonemes import VISEME_ALIASES
 from . import bl_anim, bl_controls
 
 STRIP_PREFIX = "FH Speech"
@@ -32,11 +34,18 @@ def is_face_rig(obj) -> bool:
     return obj is not None and bool(obj.get("fh_rig"))
 
 
-def viseme_keys(obj) -> list[str]:
+def viseme_keys(obj) -> dict[str, str]:
+    """Viseme track name -> the shape key on ``obj`` that shows it (canonical name or an alias)."""
     key = getattr(getattr(obj, "data", None), "shape_keys", None)
     if key is None:
-        return []
-    return [name for name in VISEMES if name in key.key_blocks]
+        return {}
+    found = {}
+    for name in VISEMES:
+        for candidate in (name, *VISEME_ALIASES.get(name, ())):
+            if candidate in key.key_blocks:
+                found[name] = candidate
+                break
+    return found
 
 
 def target_kind(obj) -> str:
@@ -65,10 +74,10 @@ def _curves_for_take(obj, take, scene, start_frame):
                 bl_anim.seconds_to_frames(track.times, scene, start_frame), track.values)
     else:
         owner = obj.data.shape_keys
-        present = set(viseme_keys(obj))
+        present = viseme_keys(obj)
         for track in take.tracks:
             if track.name in present:
-                curves[VISEME_PATH.format(track.name)] = (
+                curves[VISEME_PATH.format(present[track.name])] = (
                     bl_anim.seconds_to_frames(track.times, scene, start_frame), track.values)
     return owner, curves
 
@@ -77,7 +86,8 @@ def _remove_previous_take(obj, owner, take_target: str) -> None:
     if take_target == "muscles":
         bl_anim.remove_fcurves(owner, (bl_controls.layer_prefix("speech"),))
     else:
-        bl_anim.remove_fcurves(owner, tuple(VISEME_PATH.format(v) for v in VISEMES))
+        names = [alias for v in VISEMES for alias in (v, *VISEME_ALIASES.get(v, ()))]
+        bl_anim.remove_fcurves(owner, tuple(VISEME_PATH.format(v) for v in names))
     editor = bpy.context.scene.sequence_editor
     if editor is not None:
         for strip in [s for s in editor.strips if s.name.startswith(f"{STRIP_PREFIX} {obj.name}")]:

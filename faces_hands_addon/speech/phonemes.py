@@ -19,9 +19,15 @@ from dataclasses import dataclass
 
 from ..errors import UserError
 
+#: The 15 Oculus/Meta visemes with the names of the Oculus Lipsync reference (sil PP FF TH DD kk CH SS nn
+#: RR aa E ih oh ou), prefixed ``viseme_`` as shape keys.
 VISEMES = ("viseme_sil", "viseme_PP", "viseme_FF", "viseme_TH", "viseme_DD", "viseme_kk", "viseme_CH",
-           "viseme_SS", "viseme_nn", "viseme_RR", "viseme_aa", "viseme_E", "viseme_I", "viseme_O",
-           "viseme_U")
+           "viseme_SS", "viseme_nn", "viseme_RR", "viseme_aa", "viseme_E", "viseme_ih", "viseme_oh",
+           "viseme_ou")
+
+#: Other spellings of the same visemes found on characters (Ready Player Me avatars, and the table labels
+#: I/O/U of the Oculus reference): lip sync drives these shape keys when the canonical name is absent.
+VISEME_ALIASES = {"viseme_ih": ("viseme_I",), "viseme_oh": ("viseme_O",), "viseme_ou": ("viseme_U",)}
 
 SILENCE = "sil"
 
@@ -39,7 +45,11 @@ class PhoneInfo:
     glide_to: str | None = None
 
 
+_TABLE_LABEL_TO_NAME = {"I": "ih", "O": "oh", "U": "ou"}  # the reference table labels I/O/U as ih/oh/ou
+
+
 def _p(name, ipa, kind, viseme, arpabet, glide_to=None):
+    viseme = _TABLE_LABEL_TO_NAME.get(viseme, viseme)
     return PhoneInfo(name, ipa, kind, "viseme_" + viseme, tuple(arpabet.split()), glide_to)
 
 

@@ -132,7 +132,7 @@ def test_viseme_weights_partition_unity_and_follow_phones():
     for phone in u.phones:
         if phone.phone in ("ow", "ey") and phone.duration > 0.1:
             middle = phone.start + 0.3 * phone.duration
-            viseme = "viseme_O" if phone.phone == "ow" else "viseme_E"
+            viseme = "viseme_oh" if phone.phone == "ow" else "viseme_E"
             weights = {v: _value(result, v, middle) for v in result.parameters}
             assert max(weights, key=weights.get) == viseme
 

@@ -35,7 +35,7 @@ def test_arpabet_round_trip():
     ("p", "viseme_PP"), ("b", "viseme_PP"), ("m", "viseme_PP"), ("f", "viseme_FF"), ("v", "viseme_FF"),
     ("th", "viseme_TH"), ("t", "viseme_DD"), ("k", "viseme_kk"), ("ch", "viseme_CH"), ("sh", "viseme_CH"),
     ("s", "viseme_SS"), ("n", "viseme_nn"), ("l", "viseme_nn"), ("r", "viseme_RR"), ("aa", "viseme_aa"),
-    ("eh", "viseme_E"), ("ih", "viseme_I"), ("ow", "viseme_O"), ("uh", "viseme_U"), ("sil", "viseme_sil"),
+    ("eh", "viseme_E"), ("ih", "viseme_ih"), ("ow", "viseme_oh"), ("uh", "viseme_ou"), ("sil", "viseme_sil"),
 ])
 def test_published_viseme_table(phone, viseme):
     assert viseme_of(phone) == viseme
