@@ -145,7 +145,7 @@ def build_network(template: HeadTemplate, material: SkinMaterial | None = None,
     cap = mass_cap_factor * float(np.median(limit))
     masses = np.maximum(natural, row / cap)
     damping = material.damping_ratio * 2.0 * np.sqrt(pair * masses)
-    network = SpringNetwork(nodes, masses, springs, attachments)
+    network = SpringNetwork(nodes, masses, springs, attachments, kinematic=template.kinematic)
     integrator = LeapfrogIntegrator(network, damping, max_substeps=max_substeps)
 
     # the guard's planes: each node's rest height over its bone's tangent plane sets its clearance

@@ -8,6 +8,12 @@ the spring network runs the guard's substeps, with the skull guard after each on
 for ``foreach_set``: skin positions (N, 3) float32, 4x4 matrices for jaw, eyes, teeth and tongue, muscle
 fibre polylines with their contraction, and wrinkle strengths.
 
+Coordinates: the rig simulates in *head space* (metres, Z up, face along -Y, human scale). Every output
+(positions, rest positions, part and bone meshes, rigid transforms, muscle fibres) is in the coordinates of
+the skin mesh: for the default head that is head space (``head_to_mesh`` is the identity); a rig fitted to
+an artist's mesh (:mod:`.fitted`) returns them in that mesh's own coordinates, ``head_to_mesh`` being the
+4x4 similarity from head space to the mesh.
+
 Deterministic: the same template, material, control values and frame times give byte-identical positions.
 """
 from __future__ import annotations
@@ -50,7 +56,12 @@ class FaceRig:
         self.controls: dict[str, float] = {name: spec.default for name, spec in self.specs.items()}
         self._rest = template.skin.vertices.copy()
         self._muscle_index = {name: i for i, name in enumerate(template.muscles.names)}
-        self._muscle_matrix = _attachment_matrix(template)
+        self._muscle_matrix = (template.attachment_matrix if template.attachment_matrix is not None
+                               else _attachment_matrix(template))
+        #: 4x4 similarity from the rig's head space to the skin mesh's coordinates (see the module docstring)
+        self.head_to_mesh = np.eye(4)
+        self.warnings: list[str] = []      # problems that leave the rig usable (fitted heads: no mouth opening)
+        self._driven = template.kinematic is not None and bool(np.any(template.kinematic))
         self._cache_key = None
         self._targets = None
         self.time = 0.0
@@ -89,11 +100,13 @@ class FaceRig:
 
     @property
     def rest_positions(self) -> np.ndarray:
+        """Skin rest positions (N, 3) float32, mesh coordinates (head space for the default head)."""
         return self._rest.astype(np.float32)
 
     @property
     def positions(self) -> np.ndarray:
-        """Current skin node positions (N, 3) float32 (C-contiguous, ready for ``foreach_set``)."""
+        """Current skin node positions (N, 3) float32 (C-contiguous, ready for ``foreach_set``), mesh
+        coordinates (head space for the default head; see the module docstring)."""
         return np.ascontiguousarray(self.face.network.positions.T, dtype=np.float32)
 
     def part_meshes(self) -> dict:
@@ -161,6 +174,7 @@ class FaceRig:
             guard.set_bone_transforms([np.eye(4), jaw])
             guard.refresh(face.network.positions)
         self.frame_substeps = face.integrator.advance(dt, anchor=(target + offset).T, mirror=(target - offset).T,
+                                                      driven=target.T if self._driven else None,
                                                       constraint=face.constrain, constraint_every=GUARD_EVERY)
         self.time += dt
         return self.positions
@@ -224,7 +238,11 @@ class FaceRig:
 
     @classmethod
     def load(cls, path: str | Path) -> "FaceRig":
-        """Read a rig written by :meth:`save` (never unpickles anything)."""
+        """Read a rig written by :meth:`save` (never unpickles anything); a rig fitted to an artist's mesh
+        (:meth:`.fitted.FittedFaceRig.save`) comes back as a :class:`.fitted.FittedFaceRig`."""
+        from . import fitted
+        if fitted.is_fitted_rig_file(path):
+            return fitted.FittedFaceRig.load(path)
         try:
             with np.load(Path(path), allow_pickle=False) as data:
                 meta = json.loads(bytes(data["meta_json"]).decode("utf-8"))

@@ -95,6 +95,11 @@ class HeadTemplate:
     wrinkle_regions: dict[str, np.ndarray] = field(default_factory=dict)
     smoothing: object = None             # sparse (N, N) one smoothing pass for muscle displacements
     smoothing_passes: int = 0
+    # heads fitted to an artist's mesh (:mod:`.fitted`): nodes driven kinematically to their attachment
+    # target instead of simulated (N,) bool, and a precomputed (N, P) muscle attachment map that replaces
+    # the one built from ``attach_cell``/``attach_bary``/``attach_weight`` (None: build it as usual)
+    kinematic: np.ndarray | None = None
+    attachment_matrix: object = None
 
     @property
     def node_count(self) -> int:
@@ -183,6 +188,8 @@ def build_template(resolution: str = "default", inputs: TemplateInputs | None = 
     jaw_weight[skin.group("lower_lip")] = 1.0
     # -- stage 3: muscles --------------------------------------------------------------------------
     mirror = geometry.mirror_map(canonical, tolerance=1e-3 * np.ptp(canonical[:, 0]))
+    if np.any(mirror < 0):           # a registered (asymmetric) face: the canonical topology's own L/R map
+        mirror = _canonical_mirror()
     specs, connections = parse_muscle_specs(inputs.muscles_json, mirror)
     positive_depth = np.maximum(bone_depth, 0.0)
     if symmetric:
@@ -205,6 +212,17 @@ def build_template(resolution: str = "default", inputs: TemplateInputs | None = 
     template.jaw_glide = opening_glide(bones.tmj_pivot, bones.tmj_axis, incisor * np.array([0.0, 1.0, 1.0]))
     template.smoothing, template.smoothing_passes = _smoothing_operator(skin)
     return template
+
+
+def _canonical_mirror() -> np.ndarray:
+    """Left/right vertex map of the MediaPipe canonical face (from the symmetric asset): the map belongs to
+    the topology, so it also serves a canonical face registered onto an asymmetric head."""
+    from .. import assets
+    vertices = np.asarray(assets.canonical_face().vertices, np.float64)
+    mirror = geometry.mirror_map(vertices, tolerance=1e-3 * np.ptp(vertices[:, 0]))
+    if np.any(mirror < 0):
+        raise UserError("the canonical face asset is not left/right symmetric; restore the assets")
+    return mirror
 
 
 def _smoothing_operator(skin: SkinMesh, reference_edge: float = 0.0037):

@@ -1,0 +1,284 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Template -> the artist's own mesh (thesis 3.1.2 "Creating New Animatable Head Models from the Template").
+
+The thesis warps the template skin onto the new head and keeps the template's topology. Here the artist's
+mesh *is* the skin and its topology never changes, so the direction is reversed: the template is built on
+the canonical face registered onto the mesh (:mod:`.fitted`), and then every vertex of the mesh takes
+over what the template skin has at the vertex's closest point on it:
+
+* continuous data by barycentric interpolation of the three corners: jaw weight, the muscle
+  attachment map (3.1.2: skin nodes "attached to the closest points on the muscle", with the template's
+  smoothing already applied, so the pull spreads the same way whatever the mesh resolution), the mouth
+  region, the distance to the lip margins and the wrinkle masks;
+* discrete data from the nearest corner: node groups (lip, mouth bag, lid, rim flags) and the bone a node
+  belongs to.
+
+Two things are decided on the artist's mesh itself, by its connectivity, because position alone cannot:
+which *side of the mouth* a vertex is on (over the skin it is nearer the upper or the lower outer lip
+contour; for lips that touch, the upper lip's margin and the lower lip's margin share positions but not
+neighbours), and whether the mouth and the eyes are *open* (the path over the skin from the upper to the
+lower lip or lid is much longer than the straight line only if there is an opening between them).
+
+Vertices beyond the template's face (forehead above the hairline, temples, ears, under the chin, neck,
+shoulders) are not face skin: the muscle and lid influence fades out between ``FACE_DISTANCE`` and
+``ACTIVE_REACH`` from the template skin, and beyond it vertices are no longer simulated; they stay fixed
+to the skull except that skin below the jaw joint follows the jaw by the weight at the face's rim, fading
+out over ``JAW_REACH``, where the mandible is (below the jaw joint, not far behind it): under the chin
+the skin goes with the mandible and stretches towards the neck, further down the neck stays put; ears,
+scalp and the back of the neck stay with the skull. Pieces of the mesh not connected to the main skin
+ride the rigid part they lie on (eyeballs, teeth, tongue modelled into the head mesh), stay fixed if they
+are mostly not face (ears, a hair cap) or follow the skin if they are (eyebrows, lashes).
+All distances are in head space (human scale, metres).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import sparse
+from scipy.sparse.csgraph import connected_components, dijkstra
+from scipy.spatial import cKDTree
+
+from . import geometry
+from .template import JAW, SKULL, HeadTemplate
+
+__all__ = ["MeshTransfer", "transfer_to_mesh", "mesh_edges", "FACE_DISTANCE", "ACTIVE_REACH", "JAW_REACH", "UPPER",
+           "LOWER", "CARRIERS"]
+
+FACE_DISTANCE = 0.005   # m: vertices this close to the template skin are face skin (full weight)
+ACTIVE_REACH = 0.015    # m: muscle and lid influence has faded out here; farther vertices are not simulated
+JAW_REACH = 0.080       # m: jaw-carried skin beyond the face fades to the fixed neck over this distance
+JOINT_CLEARANCE = (0.015, 0.045)   # m below the jaw joint over which off-face skin starts following the jaw
+JOINT_BEHIND = (0.005, 0.035)      # m behind the joint over which it stops again (ears, back of the neck)
+MOUTH_REACH = 0.025     # m over the skin from the outer lip contours: where the side of the mouth matters
+MOUTH_REGION = 0.026    # m over the skin from the lip margins: the mouth region (template: 22 mm)
+OPENING_RATIO = 1.8     # path over the skin / straight distance above which there is an opening
+NONE, UPPER, LOWER = 0, 1, 2
+CARRIERS = ("eye_L", "eye_R", "teeth_upper", "teeth_lower", "tongue")   # rigid parts a separate piece can ride
+PART_REACH = 0.008      # m: a piece within this of a rigid part (most of its vertices) rides that part
+
+
+def fade(distance: np.ndarray, start: float, end: float) -> np.ndarray:
+    """1 up to ``start``, smoothstep down to 0 at ``end``."""
+    t = np.clip((end - distance) / (end - start), 0.0, 1.0)
+    return t * t * (3.0 - 2.0 * t)
+
+
+@dataclass
+class MeshTransfer:
+    """Per vertex of the artist's mesh (head space): where it lies on the template skin and what it took
+    over from there (module docstring)."""
+    triangle: np.ndarray            # (n,) template skin triangle of the closest point
+    barycentric: np.ndarray         # (n, 3)
+    distance: np.ndarray            # (n,) m
+    interpolation: sparse.csr_matrix    # (n, N_template) barycentric rows
+    face_weight: np.ndarray         # (n,) 1 on the face, 0 from ACTIVE_REACH on (muscles, lids)
+    jaw_weight: np.ndarray          # (n,) how far the vertex is carried by the jaw
+    groups: np.ndarray              # (n,) skin.GROUPS flags of the nearest template node
+    node_bone: np.ndarray           # (n,) 0 skull, 1 jaw
+    mouth_region: np.ndarray        # (n,) bool
+    lip_distance: np.ndarray        # (n,) m over the template skin to the nearest lip margin
+    wrinkles: dict[str, np.ndarray]
+    side: np.ndarray                # (n,) NONE / UPPER / LOWER side of the mouth (over the artist's skin)
+    edges: np.ndarray | None = None     # (E, 2) the mesh's unique edges
+    carrier: np.ndarray | None = None   # (n,) index into CARRIERS of the rigid part a separate shell rides, -1
+    lip_margins: dict[str, np.ndarray] = field(default_factory=dict)   # vertex ids, sorted along +X
+    openings: dict[str, bool] = field(default_factory=dict)            # "mouth", "eye_L", "eye_R"
+    warnings: list[str] = field(default_factory=list)
+
+
+def mesh_edges(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unique undirected edges (E, 2) of a triangle list (same order as :func:`.geometry.unique_edges`)
+    and how many triangles use each; one 1-D sort, fast for large meshes."""
+    faces = np.asarray(faces, np.int64)
+    e = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    e.sort(axis=1)
+    base = int(e.max()) + 1 if len(e) else 1
+    keys, counts = np.unique(e[:, 0] * base + e[:, 1], return_counts=True)
+    return np.stack([keys // base, keys % base], axis=1), counts
+
+
+def edge_graph(vertices: np.ndarray, edges: np.ndarray) -> sparse.csr_matrix:
+    """Symmetric sparse graph of the mesh ``edges`` weighted by their lengths."""
+    length = np.linalg.norm(vertices[edges[:, 1]] - vertices[edges[:, 0]], axis=1)
+    length = np.maximum(length, 1e-12)               # coincident vertices are still neighbours
+    n = len(vertices)
+    return sparse.csr_matrix((np.r_[length, length], (np.r_[edges[:, 0], edges[:, 1]],
+                                                       np.r_[edges[:, 1], edges[:, 0]])), shape=(n, n))
+
+
+def _closest(template: HeadTemplate, vertices: np.ndarray, allowed: np.ndarray | None = None):
+    faces = template.skin.faces
+    index = np.arange(len(faces)) if allowed is None else np.flatnonzero(allowed)
+    point, tri, bary, dist = geometry.closest_points(template.skin.vertices, faces[index], vertices)
+    return index[tri], bary, dist
+
+
+def _closest_near(template: HeadTemplate, vertices: np.ndarray):
+    """Closest points for the vertices that can lie within ``JAW_REACH`` of the template skin; the others
+    (most of a full body) only get a lower bound of their distance, the corner of a triangle at their
+    nearest template node and no weight."""
+    nodes, faces = template.skin.vertices, template.skin.faces
+    longest = float(np.max(np.linalg.norm(nodes[faces] - nodes[np.roll(faces, 1, axis=1)], axis=2)))
+    node_distance, node = cKDTree(nodes).query(vertices)
+    near = np.flatnonzero(node_distance - longest <= JAW_REACH)
+    owner, corner = np.zeros(len(nodes), np.int64), np.zeros(len(nodes), np.int64)
+    for k in (2, 1, 0):
+        owner[faces[:, k]] = np.arange(len(faces))
+        corner[faces[:, k]] = k
+    tri, bary, dist = owner[node], np.zeros((len(vertices), 3)), node_distance.copy()
+    bary[np.arange(len(vertices)), corner[node]] = 1.0
+    tri[near], bary[near], dist[near] = _closest(template, vertices[near])
+    return tri, bary, dist
+
+
+def _opening(graph: sparse.csr_matrix, vertices: np.ndarray, a: int, b: int, reach: float) -> bool:
+    """Is there an opening between vertices a and b (the skin path is much longer than the gap)?"""
+    straight = float(np.linalg.norm(vertices[a] - vertices[b]))
+    path = dijkstra(graph, indices=a, limit=reach)[b]
+    return bool(path > OPENING_RATIO * max(straight, 1e-4))
+
+
+def transfer_to_mesh(template: HeadTemplate, vertices: np.ndarray, faces: np.ndarray,
+                     landmarks: np.ndarray) -> MeshTransfer:
+    """Closest-point transfer from ``template`` (built on ``landmarks``, head space) to the mesh
+    ``vertices``/``faces`` (head space); see the module docstring."""
+    n = len(vertices)
+    skin = template.skin
+    t_faces = skin.faces
+    contours = template.inputs.contours
+    used = np.zeros(n, bool)
+    used[faces.ravel()] = True
+    edges, counts = mesh_edges(faces)
+    graph = edge_graph(vertices, edges)
+    used_index = np.flatnonzero(used)
+    tree = cKDTree(vertices[used_index])
+
+    def nearest_vertex(points: np.ndarray) -> np.ndarray:
+        return used_index[tree.query(points)[1]]
+
+    # -- the side of the mouth, over the artist's skin --------------------------------------------------
+    upper_seeds = np.unique(nearest_vertex(landmarks[contours["lips_outer_upper"][2:-2]]))
+    lower_seeds = np.unique(nearest_vertex(landmarks[contours["lips_outer_lower"][2:-2]]))
+    shared = np.intersect1d(upper_seeds, lower_seeds)
+    upper_seeds = np.setdiff1d(upper_seeds, shared)
+    lower_seeds = np.setdiff1d(lower_seeds, shared)
+    d_up, d_low = (dijkstra(graph, indices=seeds, min_only=True, limit=2 * MOUTH_REACH) if len(seeds)
+                   else np.full(n, np.inf) for seeds in (upper_seeds, lower_seeds))
+    near_mouth = np.minimum(d_up, d_low) < MOUTH_REACH
+    side = np.where(near_mouth, np.where(d_low < d_up, LOWER, UPPER), NONE).astype(np.int8)
+
+    # -- closest points: everything first, then per side of the mouth and for vertices off the face -------
+    bone = template.node_bone[t_faces]
+    in_mouth = template.mouth_region[t_faces].any(axis=1)
+    upper_only = in_mouth & (bone == SKULL).all(axis=1)
+    lower_only = in_mouth & (bone == JAW).all(axis=1)
+    surface_tri = skin.group("surface")[t_faces].all(axis=1)
+    tri, bary, dist = _closest_near(template, vertices)
+    far = dist > FACE_DISTANCE            # not face skin: take the visible face's rim, not the mouth bag
+    klass = side + 3 * far.astype(np.int8)
+    klass[dist >= JAW_REACH] = 0          # nothing to take over out there: the first query stands
+    for value in np.unique(klass):
+        if value == 0:
+            continue
+        which, off_face = int(value) % 3, value >= 3
+        allowed = np.ones(len(t_faces), bool)
+        if which == UPPER:
+            allowed &= ~lower_only
+        elif which == LOWER:
+            allowed &= ~upper_only
+        if off_face:
+            allowed &= surface_tri
+        select = np.flatnonzero(klass == value)
+        tri[select], bary[select], dist[select] = _closest(template, vertices[select], allowed)
+
+    corners = t_faces[tri]
+    rows = np.repeat(np.arange(n), 3)
+    interpolation = sparse.csr_matrix((bary.ravel(), (rows, corners.ravel())), shape=(n, skin.node_count))
+    nearest = corners[np.arange(n), np.argmax(bary, axis=1)]
+    face_weight = fade(dist, FACE_DISTANCE, ACTIVE_REACH) * used
+    # beyond the face, skin follows the jaw by the weight at the face's rim, fading with the distance from
+    # it, and only where the mandible is: below the jaw joint and not far behind it (under the chin, the
+    # front and sides of the neck); the ears, the scalp and the back of the neck stay with the skull
+    beyond = 1.0 - fade(dist, FACE_DISTANCE, ACTIVE_REACH)
+    joint = template.bones.tmj_pivot
+    below = 1.0 - fade(joint[2] - vertices[:, 2], JOINT_CLEARANCE[0], JOINT_CLEARANCE[1])
+    ahead = fade(vertices[:, 1] - joint[1], *JOINT_BEHIND)
+    jaw_weight = (np.clip(interpolation @ template.jaw_weight, 0.0, 1.0) * fade(dist, FACE_DISTANCE, JAW_REACH)
+                  * (1.0 - beyond * (1.0 - below * ahead)))
+    jaw_weight[jaw_weight < 1e-3] = 0.0            # far skin stays exactly where it is
+    carrier = _separate_shells(template, vertices, graph, used, face_weight)
+    mouth_region = ((interpolation @ template.mouth_region.astype(np.float64)) > 0.5) & (face_weight > 0.5)
+    lip_distance = interpolation @ np.minimum(template.lip_distance, 1.0)      # inf beyond the search
+    wrinkles = {name: (interpolation @ mask) * face_weight for name, mask in template.wrinkle_regions.items()}
+    transfer = MeshTransfer(tri, bary, dist, interpolation, face_weight, jaw_weight, skin.groups[nearest].copy(),
+                            template.node_bone[nearest].copy(), mouth_region, lip_distance, wrinkles, side,
+                            edges=edges, carrier=carrier)
+    _lip_margins(transfer, template, vertices, edges, counts)
+    # the mouth region (no bone guard, lips kept in front of the teeth) over the artist's own skin as well:
+    # a jaw-carried node just outside it can be caught by the upper teeth's bone plane as the jaw opens
+    margins = np.concatenate(list(transfer.lip_margins.values()))
+    if len(margins):
+        d_margin = dijkstra(graph, indices=margins, min_only=True, limit=MOUTH_REGION)
+        transfer.mouth_region |= (d_margin < MOUTH_REGION) & (face_weight > 0.5)
+    _openings(transfer, graph, vertices, landmarks, nearest_vertex)
+    return transfer
+
+
+def _separate_shells(template: HeadTemplate, vertices: np.ndarray, graph, used: np.ndarray,
+                     face_weight: np.ndarray) -> np.ndarray:
+    """Pieces of the mesh that are not connected to the main skin (the piece with the most face on it).
+
+    A piece lying mostly on one of the rigid parts (its own eyeballs, teeth or tongue modelled into the
+    head mesh) rides that part (returned: index into :data:`CARRIERS` per vertex, -1 elsewhere); a piece
+    that is mostly not face (ears or a hair cap modelled as separate pieces) is not simulated at all
+    (``face_weight`` set to 0 in place), so it does not wobble where it comes near the face. Pieces that
+    are mostly face (eyebrows, lashes) follow the skin like the main piece."""
+    count, component = connected_components(graph, directed=False)
+    on_face = np.bincount(component, (face_weight > 0.5) & used, count)
+    size = np.maximum(np.bincount(component, used, count), 1)
+    main = int(np.argmax(on_face))
+    carrier = np.full(len(vertices), -1, np.int8)
+    share = np.zeros((len(CARRIERS), count))
+    for index, name in enumerate(CARRIERS):
+        distance, _ = cKDTree(template.parts[name].vertices).query(vertices, distance_upper_bound=PART_REACH)
+        share[index] = np.bincount(component, np.isfinite(distance) & used, count) / size
+    best = np.argmax(share, axis=0)
+    rides = (share[best, np.arange(count)] > 0.6) & (np.arange(count) != main)
+    carrier[rides[component]] = best[component[rides[component]]]
+    not_face = ((on_face / size) < 0.5) & (np.arange(count) != main)
+    face_weight[(not_face | rides)[component]] = 0.0
+    return carrier
+
+
+def _lip_margins(transfer: MeshTransfer, template: HeadTemplate, vertices: np.ndarray, edges: np.ndarray,
+                 counts: np.ndarray) -> None:
+    """The vertices that must meet when the lips close: the border of the artist's mouth opening (if any)
+    plus, per side, the vertex nearest each node of the template's inner lip contour."""
+    border = np.zeros(len(vertices), bool)
+    border[edges[counts == 1].ravel()] = True
+    for name, which in (("lips_inner_upper", UPPER), ("lips_inner_lower", LOWER)):
+        on_side = np.flatnonzero((transfer.side == which) & (transfer.face_weight > 0.5))
+        if len(on_side) == 0:
+            transfer.lip_margins[name] = np.zeros(0, np.int64)
+            continue
+        margin = on_side[border[on_side] & (transfer.lip_distance[on_side] < 0.003)]
+        contour = template.skin.vertices[template.skin.contours[name][1:-1]]
+        gap, k = cKDTree(vertices[on_side]).query(contour)
+        margin = np.union1d(margin, on_side[k[gap < 0.003]])
+        transfer.lip_margins[name] = margin[np.argsort(vertices[margin, 0], kind="stable")]
+
+
+def _openings(transfer: MeshTransfer, graph, vertices: np.ndarray, landmarks: np.ndarray, nearest_vertex) -> None:
+    """Mouth and eye openings on the artist's mesh (module docstring); warnings where there are none."""
+    checks = {"mouth": (0, 17, 0.15), "eye_R": (159, 145, 0.08), "eye_L": (386, 374, 0.08)}
+    for name, (upper, lower, reach) in checks.items():
+        a, b = nearest_vertex(landmarks[[upper, lower]])
+        transfer.openings[name] = a != b and _opening(graph, vertices, int(a), int(b), reach)
+    if not transfer.openings["mouth"]:
+        transfer.warnings.append("lips cannot part: no mouth opening between the lip contours (cut the mesh "
+                                 "along the line where the lips meet to let the jaw open the mouth)")
+    for side, label in (("L", "left"), ("R", "right")):
+        if not transfer.openings[f"eye_{side}"]:
+            transfer.warnings.append(f"the {label} eyelids cannot open or close: no eye opening between the "
+                                     "lid contours (cut the eye opening into the mesh)")
