@@ -24,7 +24,7 @@ from .bl_mesh import mesh_from_arrays
 RIG_MARKER = "fh_rig"
 RIG_DATA = "fh_rig_data"
 RIG_CONTROLS = "fh_rig_controls"   # JSON: [[name, region, kind], ...] for the panel (no engine needed)
-HEAD_TO_LOCAL = "fh_head_to_local"  # 16 floats (row-major): engine head space -> the skin's local space
+HEAD_TO_LOCAL = "fh_head_to_local"  # 16 floats (row-major): rig output coordinates -> the skin's local space
 SIM_KEY = "FH Simulation"
 PART_ROLE = "fh_part"        # on every part object: "skull", "jaw", "eye_L", ..., "muscles"
 
@@ -218,11 +218,12 @@ def parts(obj) -> dict[str, bpy.types.Object]:
 
 # ---------------------------------------------------------------------------- pushing a pose
 def head_to_local(obj, rig) -> np.ndarray:
-    """4x4 from the rig's head space to ``obj``'s local coordinates (identity for the default head)."""
+    """4x4 from the rig's output coordinates to ``obj``'s local coordinates: identity for the default
+    head, ``inv(M0)`` for a rig fitted to a mesh in world space (see ``bl_fit``)."""
     stored = obj.get(HEAD_TO_LOCAL)
     if stored is not None and len(stored) == 16:
         return np.array(stored, dtype=np.float64).reshape(4, 4)
-    return np.asarray(getattr(rig, "head_to_mesh", np.eye(4)), dtype=np.float64)
+    return np.eye(4)
 
 
 def skin_to_local(obj, rig, positions) -> np.ndarray:

@@ -3,8 +3,9 @@
 whose skin is that very mesh (topology, UVs, materials and shape keys untouched).
 
 Coordinates: the engine fits in *world* space (so the object's own rotation and scale count: the head
-must face -Y with Z up as seen in the viewport). The rig remembers the world matrix ``M0`` of the
-moment it was built; engine head space maps to the object's local space by ``inv(M0) @ head_to_mesh``.
+must face -Y with Z up as seen in the viewport) and a fitted rig answers in the coordinates it was given
+(its internal human-scale head space stays inside the engine). The rig remembers the world matrix ``M0``
+of the moment it was built; its outputs map to the object's local space by ``inv(M0)``.
 """
 from __future__ import annotations
 
@@ -95,8 +96,7 @@ def marker_positions_world(head) -> np.ndarray | None:
 # ------------------------------------------------------------------------------ the fitted rig
 def attach_rig(context, head, rig, world_matrix: np.ndarray, name: str | None = None):
     """Turn ``head`` into a rig object: parts, controls and engine state (its mesh is not changed)."""
-    head_to_mesh = np.asarray(getattr(rig, "head_to_mesh", np.eye(4)), dtype=np.float64)
-    to_local = np.linalg.inv(world_matrix) @ head_to_mesh
+    to_local = np.linalg.inv(world_matrix)
     head[bl_face.HEAD_TO_LOCAL] = [float(v) for v in to_local.ravel()]
     obj = bl_face.create_rig_objects(context, rig, name or f"FH {head.name}", skin_obj=head)
     for part in bl_face.parts(obj).values():

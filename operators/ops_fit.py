@@ -55,7 +55,11 @@ class FitRigJob(Job):
 
     def step(self) -> float:
         from ..faces_hands_addon.face.fitted import build_fitted_rig
-        self.rig = build_fitted_rig(self.world, self.faces, self.landmarks, seed=0)
+        from ..faces_hands_addon.fitting import project_to_surface
+        landmarks = self.landmarks
+        if landmarks is not None:  # markers dragged by hand: put them back onto the surface
+            landmarks = project_to_surface(landmarks, self.world, self.faces)[0]
+        self.rig = build_fitted_rig(self.world, self.faces, landmarks, seed=0)
         return 1.0
 
     def commit(self, context) -> str:
