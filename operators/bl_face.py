@@ -226,6 +226,12 @@ def head_to_local(obj, rig) -> np.ndarray:
     return np.eye(4)
 
 
+def rig_to_world(obj, rig, points) -> np.ndarray:
+    """Points in the rig's output coordinates -> world coordinates now (the object may have moved)."""
+    matrix = np.asarray(obj.matrix_world, dtype=np.float64) @ head_to_local(obj, rig)
+    return np.asarray(points, dtype=np.float64) @ matrix[:3, :3].T + matrix[:3, 3]
+
+
 def skin_to_local(obj, rig, positions) -> np.ndarray:
     """Skin positions from head space into the skin object's local space, float32 for foreach_set."""
     matrix = head_to_local(obj, rig)

@@ -97,8 +97,7 @@ def render_sheet(context, obj, cells: list[Cell], out_path, cell_size=(220, 250)
     hidden_before = {o.name: o.hide_render for o in scene.objects}
     for other in scene.objects:
         other.hide_render = other not in visible
-    matrix = np.asarray(obj.matrix_world)
-    world = rig.rest_positions @ matrix[:3, :3].T + matrix[:3, 3]
+    world = bl_face.rig_to_world(obj, rig, rig.rest_positions)
     low, high = world.min(axis=0), world.max(axis=0)
     height = float(high[2] - low[2])
     azimuth = math.radians(VIEWS[view])
@@ -106,12 +105,12 @@ def render_sheet(context, obj, cells: list[Cell], out_path, cell_size=(220, 250)
     front = np.array([0.0, low[1] - 0.02 - centre[1]])  # the label stands in front of the head, facing the camera
     turned = np.array([[math.cos(azimuth), -math.sin(azimuth)], [math.sin(azimuth), math.cos(azimuth)]]) @ front
     label = _label_object(scene.collection, "", (centre[0] + turned[0], centre[1] + turned[1],
-                                                 low[2] - 0.09 * height), 0.085 * height, azimuth)
+                                                 low[2] - 0.30 * height), 0.085 * height, azimuth)
     tmp_dir = Path(tempfile.mkdtemp(prefix="fh-sheet-"))
     tiles = []
     label.data.body = "neutral"
     bl_render.setup_workbench(scene, cell_size)
-    margin_below = 0.22 * height  # room for the label under the chin
+    margin_below = 0.36 * height  # room for an open jaw and the label under the chin
     bl_render.frame_camera(scene, visible, azimuth_deg=VIEWS[view], margin=1.08,
                            bounds=(low - np.array([0.0, 0.0, margin_below]), high))
     try:
