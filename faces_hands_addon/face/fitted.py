@@ -44,6 +44,7 @@ from scipy import sparse
 from scipy.spatial import cKDTree
 
 from ..errors import UserError
+from ..fitting.surface import checked_mesh
 from ..physics import BoneHalfSpaceGuard
 from . import geometry
 from .kinematics import LidRig
@@ -64,28 +65,13 @@ LANDMARK_COUNT = 468
 
 def check_mesh(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
     """The artist's mesh as (N, 3) float64 vertices and (M, 3) int64 triangles, or a UserError that says
-    what is wrong and what to do."""
-    try:
-        vertices = np.asarray(vertices, np.float64)
-        faces = np.asarray(faces)
-    except (TypeError, ValueError):
-        raise UserError("the head mesh must be given as numeric vertex and triangle arrays") from None
-    if vertices.ndim != 2 or vertices.shape[1] != 3:
-        raise UserError(f"head mesh vertices must be an (N, 3) array, not {vertices.shape}")
-    if faces.size == 0:
-        raise UserError("the head mesh has no faces: a face rig needs the head's surface, not a point cloud or "
-                        "wire mesh; select a mesh with faces")
-    if faces.ndim != 2 or faces.shape[1] != 3 or faces.dtype.kind not in "iu":
-        raise UserError(f"head mesh faces must be an (M, 3) integer triangle array, not {faces.shape}; pass the "
-                        "mesh's loop triangles")
-    if len(vertices) > MAX_VERTICES:
-        raise UserError(f"the head mesh has {len(vertices):,} vertices; the face rig takes at most "
+    what is wrong and what to do: the fitter's own checks (``fitting.surface.checked_mesh``: arrays,
+    indices, NaN, degenerate), the face rig's size limit, and no non-manifold edges."""
+    count = len(np.asarray(vertices).reshape(-1, 3)) if np.asarray(vertices).size else 0
+    if count > MAX_VERTICES:
+        raise UserError(f"the head mesh has {count:,} vertices; the face rig takes at most "
                         f"{MAX_VERTICES:,}: add a Decimate modifier, apply it and fit again")
-    faces = faces.astype(np.int64)
-    if faces.min() < 0 or faces.max() >= len(vertices):
-        raise UserError(f"head mesh faces index vertices outside 0..{len(vertices) - 1}")
-    if not np.all(np.isfinite(vertices)):
-        raise UserError("the head mesh has NaN or infinite vertex coordinates; fix the mesh first")
+    vertices, faces = checked_mesh(vertices, faces)
     _, counts = mesh_edges(faces[_proper(faces)])
     bad = int(np.count_nonzero(counts > 2))
     if bad:

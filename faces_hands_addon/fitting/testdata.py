@@ -151,7 +151,7 @@ def remeshed_face(seed: int = 0, *, spacing: float = 0.005, stretch=(1.15, 1.05,
                          f"remeshed face mask, {len(vertices)} vertices, sculpt={sculpt}, stretch={tuple(stretch)}")
 
 
-def _ellipsoid(centre, axes, rings: int, keep=None):
+def ellipsoid(centre, axes, rings: int, keep=None):
     """UV-sphere ellipsoid (outward triangles); ``keep(centroids) -> bool`` selects a part."""
     lat = np.linspace(0, np.pi, rings + 1)[1:-1]
     lon = np.linspace(0, 2 * np.pi, 2 * rings, endpoint=False)
@@ -199,11 +199,11 @@ def full_head(seed: int = 0, *, spacing: float = 0.005, body_spacing: float | No
         return max(int(np.pi * max(axes) / body), 8)
 
     cap_axes, ear_axes, chest_axes = (0.079, 0.105, 0.118), (0.012, 0.022, 0.032), (0.21, 0.13, 0.11)
-    cap = _ellipsoid((0.0, 0.035, 0.012), cap_axes, rings(cap_axes),
+    cap = ellipsoid((0.0, 0.035, 0.012), cap_axes, rings(cap_axes),
                      keep=lambda c: (c[:, 1] > 0.0) | (c[:, 2] > 0.07))
-    ears = [_ellipsoid((side * 0.083, 0.03, 0.0), ear_axes, rings(ear_axes)) for side in (-1.0, 1.0)]
+    ears = [ellipsoid((side * 0.083, 0.03, 0.0), ear_axes, rings(ear_axes)) for side in (-1.0, 1.0)]
     neck = _cylinder((0.0, 0.03), 0.055, -0.04, -0.21, max(int(0.35 / body), 16), max(int(0.17 / body), 4))
-    chest = _ellipsoid((0.0, 0.03, -0.30), chest_axes, rings(chest_axes))
+    chest = ellipsoid((0.0, 0.03, -0.30), chest_axes, rings(chest_axes))
     parts = [(face_v, face_f), cap, *ears, neck, chest]
     vertices, faces, base = [], [], 0
     for v, f in parts:

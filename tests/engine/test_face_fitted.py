@@ -267,19 +267,7 @@ def test_same_inputs_give_identical_rigs_and_save_load_round_trips(mask, rig, tm
 
 def _sphere(centre, radius, rings=10):
     """A UV sphere (closed, outward triangles)."""
-    lat = np.linspace(0, np.pi, rings + 1)[1:-1]
-    lon = np.linspace(0, 2 * np.pi, 2 * rings, endpoint=False)
-    la, lo = np.meshgrid(lat, lon, indexing="ij")
-    unit = np.stack([np.sin(la) * np.cos(lo), np.sin(la) * np.sin(lo), np.cos(la)], -1).reshape(-1, 3)
-    unit = np.vstack([[0, 0, 1], unit, [0, 0, -1]])
-    n = len(lon)
-    ring = 1 + np.arange((rings - 1) * n).reshape(rings - 1, n)
-    after = np.roll(ring, -1, axis=1)
-    faces = [np.stack([np.zeros(n, int), ring[0], after[0]], 1)]
-    for r in range(rings - 2):
-        faces += [np.stack([ring[r], ring[r + 1], after[r + 1]], 1), np.stack([ring[r], after[r + 1], after[r]], 1)]
-    faces.append(np.stack([np.full(n, len(unit) - 1), after[-1], ring[-1]], 1))
-    return centre + radius * unit, np.vstack(faces)
+    return testdata.ellipsoid(centre, (radius, radius, radius), rings)
 
 
 def test_eyeballs_modelled_into_the_mesh_turn_with_the_gaze(mask, rig):
