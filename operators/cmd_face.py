@@ -47,6 +47,14 @@ def build_default(progress, name: str = "FH Head", resolution: str = "default"):
     return run_job(BuildDefaultRigJob(name, resolution), bpy.context, progress), find_rig(name)
 
 
+def rig_from_args(args, progress):
+    """The rig object of ``--blend`` (picked by ``--rig`` when there are several), or a new default head."""
+    if args.blend:
+        open_blend(args.blend)
+        return find_rig(args.rig)
+    return build_default(progress)[1]
+
+
 # ------------------------------------------------------------------------------ build-face
 class BuildFace:
     NAME = "build-face"
@@ -91,11 +99,7 @@ class Bake:
     def run(args, progress) -> int:
         from .ops_face import BakeJob
         out = check_output_path(args.out, (".glb", ".fbx", ".blend"))
-        if args.blend:
-            open_blend(args.blend)
-            rig = find_rig(args.rig)
-        else:
-            _, rig = build_default(progress)
+        rig = rig_from_args(args, progress)
         report = run_job(BakeJob(bpy.context, rig, args.mode.upper(), args.preset), bpy.context, progress)
         print(report)
         if out.suffix.lower() == ".blend":
@@ -128,11 +132,7 @@ class Render:
         out = check_output_path(args.out, (".png",))
         if not 1 <= args.columns <= 50:
             raise UserError("--columns must be between 1 and 50")
-        if args.blend:
-            open_blend(args.blend)
-            rig_obj = find_rig(args.rig)
-        else:
-            _, rig_obj = build_default(progress)
+        rig_obj = rig_from_args(args, progress)
         rig = bl_face.get_rig(rig_obj)
         include = ("neutral", "muscles", "direct") + (("arkit", "visemes") if args.sheet == "expressions" else ())
         cells = bl_sheet.expression_cells(rig, include)
