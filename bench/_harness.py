@@ -13,12 +13,5 @@ import blender_env  # noqa: E402
 USER_DIR = Path(os.environ.get("FH_BENCH_USER_DIR", ROOT / ".blender-user"))
 if not blender_env.extension_dir(USER_DIR).exists():
     sys.exit(f"the extension is not installed in {USER_DIR}; run `make install` (or `make bench`)")
-_stdout = os.dup(1)
-os.dup2(2, 1)  # keep Blender's start-up chatter off the figures
-try:
-    EXTENSION = blender_env.enable(USER_DIR)
-finally:
-    sys.stdout.flush()
-    os.dup2(_stdout, 1)
-    os.close(_stdout)
+EXTENSION = blender_env.enable(USER_DIR, quiet=True)  # Blender's start-up chatter stays off the figures
 blender_env.alias_installed_engine()

@@ -76,8 +76,18 @@ def is_current(zip_path: Path, user_dir: Path) -> bool:
     return stamp.get("mtime") == zip_path.stat().st_mtime and stamp.get("size") == zip_path.stat().st_size
 
 
-def enable(user_dir: Path):
-    """Import ``bpy`` against ``user_dir`` and make sure the installed extension is enabled."""
+def enable(user_dir: Path, quiet: bool = False):
+    """Import ``bpy`` against ``user_dir`` and make sure the installed extension is enabled.
+    ``quiet`` sends Blender's start-up chatter to stderr, keeping stdout for the caller's output."""
+    if quiet:
+        stdout_fd = os.dup(1)
+        os.dup2(2, 1)
+        try:
+            return enable(user_dir)
+        finally:
+            sys.stdout.flush()
+            os.dup2(stdout_fd, 1)
+            os.close(stdout_fd)
     use_user_dir(user_dir)
     bpy = _quiet_bpy()
     import addon_utils

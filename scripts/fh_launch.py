@@ -23,14 +23,7 @@ def main() -> int:
     rest = argv[2:]
     if rest and rest[0] == "--":
         rest = rest[1:]
-    stdout_fd = os.dup(1)
-    os.dup2(2, 1)  # Blender's start-up lines go to stderr
-    try:
-        extension = blender_env.enable(user_dir)
-    finally:
-        sys.stdout.flush()
-        os.dup2(stdout_fd, 1)
-        os.close(stdout_fd)
+    extension = blender_env.enable(user_dir, quiet=True)  # Blender's start-up lines go to stderr
     return extension.operators.cli.main(rest)
 
 
