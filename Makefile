@@ -67,7 +67,7 @@ _test: build
 	exit $$rc
 
 bench: install
-	@for f in bench/*.py; do echo "== $$f"; $(PY) $$f || exit 1; done
+	@for f in bench/[!_]*.py; do echo "== $$f"; $(PY) $$f || exit 1; done
 
 assets: | $(VENV)/.stamp
 	$(PY) scripts/extract_assets.py
