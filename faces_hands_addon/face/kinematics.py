@@ -90,11 +90,16 @@ def eye_matrix(centre: np.ndarray, eye_yaw: float, eye_pitch: float) -> np.ndarr
 
 
 def tongue_matrix(jaw: np.ndarray, pivot: np.ndarray, tip_up: float, back: float, out: float,
-                  tip_up_deg: float = 35.0, back_m: float = 0.010, out_m: float = 0.024) -> np.ndarray:
-    """Rigid tongue carried by the jaw: tip raised about a pivot at its root, pulled back, stuck out."""
+                  tip_up_deg: float = 35.0, back_m: float = 0.010, out_m: float = 0.024,
+                  out_lift: float = 0.0045) -> np.ndarray:
+    """Rigid tongue carried by the jaw (3.1.2 "Eyes, Teeth, Tongue"): tip raised about ``pivot`` (mid-tongue,
+    :func:`.organs.tongue_in_arch`) towards the alveolar ridge, pulled back, stuck out. Sticking out first lifts the tongue (``out_lift``,
+    most of it over the first 30 % of the travel) so that it slides out over the lower incisors rather
+    than through them."""
     tip_up, back, out = (float(np.clip(v, 0.0, 1.0)) for v in (tip_up, back, out))
     raise_tip = rotation(np.array([1.0, 0.0, 0.0]), -np.radians(tip_up_deg) * tip_up, pivot)
-    shift = translation(np.array([0.0, back_m * back - out_m * out, -0.004 * out]))
+    lift = out_lift * (1.0 - (1.0 - min(out / 0.3, 1.0)) ** 2)
+    shift = translation(np.array([0.0, back_m * back - out_m * out, lift]))
     return jaw @ shift @ raise_tip
 
 

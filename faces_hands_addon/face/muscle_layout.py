@@ -82,6 +82,9 @@ class MuscleSpec:
     squeeze: tuple[float, float] = (0.2, 0.3)  # sphincter: (horizontal, vertical) shrink of the inner fibre
     taper: float = 0.0                        # sphincter: outer fibres shrink (inner/outer)^taper as much
     protrusion: tuple[float, float] = (0.0, 0.0)   # orbicularis oris: (forward, backward) travel, m
+    rounding: tuple[float, float] = (0.0, 0.0)  # orbicularis oris, contracted and protruded: (extra sideways
+    #                                           shrink, lateral closure) of the inner fibre (see .muscles)
+    rounding_taper: float = 0.0               # outer fibres shrink sideways (inner/outer)^rounding_taper as much
     group: str = ""                           # "oris" for the two halves of the orbicularis oris
 
 
@@ -144,6 +147,8 @@ def parse_muscle_specs(text: str, mirror: np.ndarray, path: str = "muscles.json"
                 centre=parse_point(entry["centre"]) if "centre" in entry else None,
                 squeeze=tuple(entry.get("squeeze", (0.2, 0.3))), taper=float(entry.get("taper", 0.0)),
                 protrusion=tuple(v * mm for v in entry.get("protrusion_mm", (0.0, 0.0))),
+                rounding=tuple(entry.get("rounding", (0.0, 0.0))),
+                rounding_taper=float(entry.get("rounding_taper", 0.0)),
                 group=entry.get("group", ""))
         except (KeyError, TypeError, ValueError) as exc:
             raise UserError(f"{path}: muscle {entry.get('name', '?')!r} is malformed ({exc})") from None
@@ -242,5 +247,10 @@ def place_muscle(spec: MuscleSpec, canonical: np.ndarray, skin_vertices: np.ndar
     _, nearest = cKDTree(skin_vertices).query(projected, k=6)
     votes = node_on_jaw[nearest].mean(axis=1).reshape(shape)
     row_bone = (votes.mean(axis=1) > 0.5).astype(np.int64)
+    if spec.group == "oris":
+        # each half of the orbicularis oris belongs to its own lip's bone as a whole (upper: skull, lower: jaw),
+        # like the skin it moves; the corners' vote is ambiguous and a jaw-carried upper corner would lift
+        # the (skull-carried) upper lip skin when the jaw opens
+        row_bone[:] = int(votes.mean() > 0.5)
     return PlacedMuscle(spec, points.reshape(*shape, 3), normal.reshape(*shape, 3), projected.reshape(*shape, 3),
                         row_bone, (max(1, int(spec.refine[0])), max(1, int(spec.refine[1]))))

@@ -7,7 +7,12 @@ Per frame, in the thesis' order:
    original course of the muscle" towards the fixed origin (a point at arc length ``s`` moves to
    ``s (1 - c k)`` along the rest polyline). "Sphincter muscles contract towards their center"; the
    orbicularis oris centre is shifted along the protrusion axis "gradually": fully for the innermost
-   fibre, not at all for the outermost.
+   fibre, not at all for the outermost. *Rounding* (our reading of the shifted centre): once the centre
+   lies in front of the teeth, the lips no longer rest on the dental arch, so the contracting ring also
+   closes sideways. With contraction ``c`` and protrusion ``p > 0`` the horizontal shrink grows by
+   ``c p rounding[0]`` and the inner fibres' lateral parts close vertically by up to ``c p rounding[1]``
+   (most at the corners, none in the middle): the small rounded opening of /u/ (3.1.3). Bilabial
+   closure (no protrusion) is unchanged.
 2. *Jaw*: "muscles attached to the jaw are moved along by rotating their control points" (rows on the jaw).
 3. *Connections*: "Muscle connections are preserved by restoring the original distance of the involved
    control points to their center ... the weighted average of the control points, where points belonging
@@ -100,7 +105,13 @@ class MuscleSystem:
             reach = np.median(np.abs(local[..., 2]), axis=0) + 1e-4
             factor = (reach[0] / reach) ** spec.taper
             horizontal, vertical = spec.squeeze
-            self.fibre_squeeze.append((horizontal * factor, vertical * factor))
+            # rounding (module docstring): sideways shrink tapered on its own; the lateral closure is a
+            # vertical squeeze, tapered like it, growing from the middle (0) to the corners (1) of each fibre
+            sideways = spec.rounding[0] * (reach[0] / reach) ** spec.rounding_taper
+            half_width = np.maximum(np.abs(local[..., 0]).max(axis=0), 1e-4)
+            lateral = np.clip(np.abs(local[..., 0]) / half_width, 0.0, 1.0) ** 2          # (R, C)
+            self.fibre_squeeze.append((horizontal * factor, vertical * factor, sideways,
+                                       spec.rounding[1] * factor * lateral))
 
     def _prepare_cells(self) -> None:
         cells, owner = [], []
@@ -215,8 +226,9 @@ class MuscleSystem:
                     centre_now = centre
                     axes = np.eye(3)
                 local = (points[sl].reshape(rows, cols, 3) - centre_now) @ axes.T
-                sx = 1.0 - c * squeeze[0][None, :]
-                sz = 1.0 - c * squeeze[1][None, :]
+                rounding = c * max(protrusion, 0.0) if spec.group == "oris" else 0.0
+                sx = 1.0 - c * squeeze[0][None, :] - rounding * squeeze[2][None, :]
+                sz = (1.0 - c * squeeze[1][None, :]) * np.clip(1.0 - rounding * squeeze[3], 0.0, 1.0)
                 local[..., 0] *= sx
                 local[..., 2] *= sz
                 if spec.group == "oris" and protrusion != 0.0:
@@ -224,7 +236,7 @@ class MuscleSystem:
                     inner_weight = np.linspace(1.0, 0.0, cols) if cols > 1 else np.ones(1)
                     local[..., 1] -= protrusion * travel * inner_weight[None, :]
                 points[sl] = (local @ axes + centre_now).reshape(-1, 3)
-                own_length[sl] = np.repeat(0.5 * (sx + sz), rows, axis=0).ravel()
+                own_length[sl] = np.broadcast_to(0.5 * (sx + sz), (rows, cols)).ravel()
         points = self._connect(points, contraction)
         thickness = self._bulge(points, contraction, own_length)
         surface = points + normal * (thickness - self.thickness_rest)[:, None]

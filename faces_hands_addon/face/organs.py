@@ -12,7 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["PartMesh", "eyeball_mesh", "teeth_meshes", "tongue_mesh", "arch_surface"]
+__all__ = ["PartMesh", "eyeball_mesh", "teeth_meshes", "tongue_mesh", "tongue_in_arch", "lingual_outline",
+           "arch_surface"]
 
 # Mesiodistal crown widths (mm), central incisor to second molar; a typical adult dentition.
 UPPER_WIDTHS = (8.5, 6.5, 7.5, 7.0, 6.5, 10.0, 9.0)
@@ -120,10 +121,41 @@ def teeth_meshes(incisal_point: np.ndarray, arch_half_width: float, arch_depth: 
     return parts[0], parts[1]
 
 
+def _arch_points(half: float, depth: float, widths: np.ndarray, samples: int = 400):
+    """Points along one side (x >= 0) of the parabolic arch ``y = depth (x/half)^2`` of :func:`teeth_meshes`
+    (relative to its incisal point): x, y, slope and the index of the crown there (``widths`` in m, laid
+    out by arc length from the midline)."""
+    xs = np.linspace(0, half, samples)
+    ys = depth * (xs / half) ** 2
+    arc = np.r_[0, np.cumsum(np.hypot(np.diff(xs), np.diff(ys)))]
+    ends = np.cumsum(widths)
+    tooth = np.minimum(np.searchsorted(ends, arc), len(widths) - 1)
+    return xs, ys, 2 * depth * xs / half ** 2, tooth
+
+
+def lingual_outline(lower_incisal_point: np.ndarray, arch_half_width: float, arch_depth: float,
+                    scale: float = 1.0, clearance: float = 0.0015) -> tuple[np.ndarray, np.ndarray]:
+    """The free space inside the lower dental arch of :func:`teeth_meshes`, seen from above: for depths
+    ``y`` (head coordinates, increasing backwards) the half-width ``x`` (m) that stays ``clearance`` behind
+    the crowns' lingual faces. In front of the central incisors' lingual face the half-width is 0."""
+    half, depth = arch_half_width * 0.93, arch_depth * 0.95
+    xs, ys, slope, tooth = _arch_points(half, depth, np.array(LOWER_WIDTHS) / 1000 * scale)
+    crown = np.array(CROWN_DEPTH)[tooth] / 1000 * scale * 0.9 + clearance
+    norm = np.hypot(1.0, slope)
+    x = xs - slope * crown / norm                       # labial face moved inward (lingual) by the crown
+    y = ys + crown / norm
+    keep = x >= 0
+    y, x = np.maximum.accumulate(y[keep]), x[keep]                  # depth monotone for np.interp
+    x = np.minimum.accumulate(x[::-1])[::-1]           # and the width: never wider than any point behind
+    return lower_incisal_point[1] + y, x
+
+
 def tongue_mesh(tip: np.ndarray, length: float, width: float, thickness: float, rings: int = 14,
-                segments: int = 20) -> PartMesh:
+                segments: int = 20, inside: tuple[np.ndarray, np.ndarray] | None = None) -> PartMesh:
     """A rigid tongue: a half-ellipsoid (flat underside) whose tip is at ``tip`` and which extends
-    ``length`` backwards (+Y), with a shallow median groove on top."""
+    ``length`` backwards (+Y), with a shallow median groove on top. ``inside`` = (depths, half-widths) of
+    the space it must fit in seen from above (:func:`lingual_outline`): every cross-section is narrowed,
+    keeping its shape, to the half-width allowed at its depth (behind the outline the last value holds)."""
     unit, faces = _uv_sphere(rings, segments)
     shaped = unit.copy()
     shaped[:, 2] = np.where(shaped[:, 2] < 0, shaped[:, 2] * 0.25, shaped[:, 2])     # flatter underside
@@ -131,7 +163,28 @@ def tongue_mesh(tip: np.ndarray, length: float, width: float, thickness: float, 
     shaped[:, 2] -= groove
     verts = shaped * np.array([width / 2, length / 2, thickness / 2])
     verts += tip + np.array([0.0, length / 2, 0.0])
+    if inside is not None:
+        depths, allowed = inside
+        section = width / 2 * np.sqrt(np.clip(1.0 - unit[:, 1] ** 2, 0.0, 1.0))     # ellipsoid half-width
+        limit = np.interp(verts[:, 1], depths, allowed, left=0.0)
+        narrow = np.where(section > limit, limit / np.maximum(section, 1e-9), 1.0)
+        verts[:, 0] *= narrow
+        top = verts[:, 2] > tip[2]                      # a narrowed blade is also flatter (no ridge)
+        verts[top, 2] = tip[2] + (verts[top, 2] - tip[2]) * (0.5 + 0.5 * narrow[top])
     return PartMesh("tongue", verts, faces, np.zeros(len(faces), np.int64), ("tongue",))
+
+
+def tongue_in_arch(lower_incisal_point: np.ndarray, arch_half_width: float, arch_depth: float,
+                   scale: float = 1.0, clearance: float = 0.0015) -> tuple[PartMesh, np.ndarray]:
+    """The tongue at rest on the floor of the mouth (3.1.2 "Eyes, Teeth, Tongue": generated procedurally):
+    inside the lower dental arch (``clearance`` behind every crown's lingual face), its tip behind the
+    central incisors and 3 mm below their cutting edge, its back 46 mm further. Returns the mesh and the
+    pivot of ``tongue_tip_up``, 26 mm behind the tip (see :func:`.kinematics.tongue_matrix`)."""
+    depths, allowed = lingual_outline(lower_incisal_point, arch_half_width, arch_depth, scale, clearance)
+    tip = np.array([lower_incisal_point[0], depths[0], lower_incisal_point[2] - 0.003 * scale])
+    mesh = tongue_mesh(tip, 0.046 * scale, 0.044 * scale, 0.015 * scale, inside=(depths, allowed))
+    pivot = tip + np.array([0.0, 0.026, -0.001]) * scale
+    return mesh, pivot
 
 
 def arch_surface(incisal_point: np.ndarray, arch_half_width: float, arch_depth: float, upper: bool,

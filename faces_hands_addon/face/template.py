@@ -359,9 +359,7 @@ def _organs(skin: SkinMesh, canonical: np.ndarray, bones: BoneFit, nodes: np.nda
     parts["teeth_upper"], parts["teeth_lower"] = upper, lower
     arches = {"upper": organs.arch_surface(incisal, 0.026 * scale, 0.040 * scale, True),
               "lower": organs.arch_surface(lower_incisal, 0.026 * scale, 0.040 * scale, False)}
-    tip = lower_incisal + np.array([0.0, 0.006, -0.004])
-    parts["tongue"] = organs.tongue_mesh(tip, 0.044 * scale, 0.040 * scale, 0.015 * scale)
-    tongue_pivot = tip + np.array([0.0, 0.036 * scale, -0.008])
+    parts["tongue"], tongue_pivot = organs.tongue_in_arch(lower_incisal, 0.026 * scale, 0.040 * scale, scale)
     return parts, lids, tongue_pivot, arches
 
 
