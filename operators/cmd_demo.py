@@ -49,7 +49,8 @@ def run(args, progress) -> int:
     blend = out_dir / "face_rig.blend"
     save_blend(blend)
     outputs.append(blend)
-    spec = {"text": SENTENCE, "out": str(out_dir / "speech.glb"), "sheet": str(out_dir / "speech_contact_sheet.png")}
+    spec = {"text": SENTENCE, "out": str(out_dir / "speech.glb"), "sheet": str(out_dir / "speech_contact_sheet.png"),
+            "extra_sheets": [(out_dir / "speech_contact_sheet_three_quarter.png", "three-quarter")]}
     outputs += run_line(spec, None, 30.0, _scaled(progress, 0.7, 1.0))
     progress(1.0, "demo finished")
     print(written(outputs))

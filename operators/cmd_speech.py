@@ -80,7 +80,7 @@ def phoneme_cells(take, limit: int = 40) -> list:
 
 
 def _write_outputs(rig_obj, take, out: Path, sheet: Path | None, progress, source_audio=None,
-                   view: str = "front") -> list[Path]:
+                   view: str = "front", extra_sheets=()) -> list[Path]:
     from ..faces_hands_addon.speech import load_audio, save_wav
     paths = []
     wav = out.with_suffix(".wav")
@@ -96,11 +96,11 @@ def _write_outputs(rig_obj, take, out: Path, sheet: Path | None, progress, sourc
         else:
             save_wav(tmp, take.utterance.samples, take.utterance.sample_rate)
     paths.append(wav)
-    if sheet is not None:
-        with atomic_output(sheet) as tmp:
+    for sheet_path, sheet_view in ([(sheet, view)] if sheet is not None else []) + list(extra_sheets):
+        with atomic_output(sheet_path) as tmp:
             bl_sheet.render_sheet(bpy.context, rig_obj, phoneme_cells(take), tmp, columns=8, progress=progress,
-                                  view=view)
-        paths.append(sheet)
+                                  view=sheet_view)
+        paths.append(Path(sheet_path))
     return paths
 
 
@@ -125,7 +125,8 @@ def run_line(spec: dict, rig_path, fps, progress) -> list[Path]:
                               rate=float(spec.get("rate") or 175), fps=fps, target="muscles", progress=progress)
     rig_obj = _prepare_rig(rig_path, fps, progress)
     _bake_take(rig_obj, take, progress)
-    return _write_outputs(rig_obj, take, out, sheet, progress, spec.get("audio"), view)
+    return _write_outputs(rig_obj, take, out, sheet, progress, spec.get("audio"), view,
+                          spec.get("extra_sheets", ()))
 
 
 def read_jobs(path: str) -> list[dict]:

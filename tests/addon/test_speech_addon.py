@@ -146,3 +146,39 @@ def test_zero_length_audio_is_a_clear_error(bpy_clean, tmp_path):
     with pytest.raises(RuntimeError, match="(?i)empty|no audio|too short|zero"):
         bpy.ops.faces_hands.lipsync_audio(filepath=str(empty), transcript="hello")
     assert obj.data.shape_keys.animation_data is None
+
+
+def _glb_animation_seconds(path):
+    import json
+    import struct
+    data = path.read_bytes()
+    length = struct.unpack_from("<I", data, 12)[0]
+    doc = json.loads(data[20:20 + length])
+    times = [doc["accessors"][s["input"]] for a in doc.get("animations", []) for s in a["samplers"]]
+    return min(t["min"][0] for t in times), max(t["max"][0] for t in times)
+
+
+def test_cli_speak_jobs_csv_glb_and_wav_start_together(installed, tmp_path):
+    import soundfile
+    from conftest import run_fh
+    jobs = tmp_path / "lines.csv"
+    jobs.write_text("out,text,voice\n"
+                    f"{tmp_path / 'hello.glb'},Hello there.,en-us\n"
+                    f"{tmp_path / 'hallo.fbx'},Guten Tag.,de\n")
+    result = run_fh(installed, "speak", "--jobs", jobs, "--fps", "25")
+    assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
+    for name in ("hello.glb", "hello.wav", "hallo.fbx", "hallo.wav"):
+        assert (tmp_path / name).exists(), name
+    start, end = _glb_animation_seconds(tmp_path / "hello.glb")
+    audio = soundfile.info(str(tmp_path / "hello.wav"))
+    assert start == pytest.approx(0.0, abs=1e-6)
+    assert abs(end - audio.duration) <= 1.0 / 25 + 1e-6, (end, audio.duration)
+
+
+def test_cli_speak_bad_jobs_file_writes_nothing(installed, tmp_path):
+    from conftest import run_fh
+    jobs = tmp_path / "lines.csv"
+    jobs.write_text("out,text\n" f"{tmp_path / 'a.glb'},Hello.\n" f"{tmp_path / 'b.txt'},Oops.\n")
+    result = run_fh(installed, "speak", "--jobs", jobs)
+    assert result.returncode == 1 and "b.txt" in result.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["lines.csv"]
