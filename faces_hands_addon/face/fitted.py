@@ -49,7 +49,7 @@ from ..physics import BoneHalfSpaceGuard
 from . import geometry
 from .kinematics import LidRig
 from .network import SkinMaterial
-from .rig import FaceRig, _attachment_matrix
+from .rig import FaceRig, _attachment_matrix, read_saved_rig
 from .skin import GROUPS, SkinMesh
 from .skull_fit import similarity_transform
 from .template import HeadTemplate, TemplateInputs, build_template, default_inputs
@@ -468,65 +468,27 @@ class FittedFaceRig(FaceRig):
     def save(self, path: str | Path) -> None:
         """Write the rig (.npz, no pickle): the mesh and landmarks it was fitted to, the template inputs,
         material, controls and simulation state. :meth:`load` refits from them (deterministic)."""
-        head, inputs = self.fitted, self.fitted.inputs
-        meta = {"format": FORMAT, "resolution": head.resolution, "material": self.material.to_dict(),
-                "controls": self.controls, "time": self.time, "started": self.face.integrator.started,
-                "seed": head.seed, "warnings": self.warnings, "contours": sorted(inputs.contours),
-                "landmarks_json": inputs.landmarks_json, "muscles_json": inputs.muscles_json}
-        arrays = {"meta_json": np.frombuffer(json.dumps(meta, sort_keys=True).encode("utf-8"), np.uint8),
-                  "mesh_vertices": head.mesh_vertices, "mesh_faces": head.mesh_faces.astype(np.int32),
-                  "landmarks": head.landmarks,
-                  "canonical_vertices": inputs.canonical_vertices, "canonical_faces": inputs.canonical_faces,
-                  "skull_vertices": inputs.skull_vertices, "skull_faces": inputs.skull_faces,
-                  "jaw_vertices": inputs.jaw_vertices, "jaw_faces": inputs.jaw_faces,
-                  "positions": self.face.network.positions, "velocity": self.face.integrator.velocity,
-                  "anchor": self.face.network.attachments.anchor, "mirror": self.face.network.attachments.mirror,
-                  "mass_scale": np.array([self.face.integrator.mass_scale]), "passive_offset": self._passive_offset}
-        for name, line in inputs.contours.items():
-            arrays[f"contour__{name}"] = np.asarray(line)
-        for guard_name in ("bone_guard", "teeth_guard"):
-            for key, value in getattr(self.face, guard_name).state().items():
-                arrays[f"{guard_name}__{key}"] = value
-        with open(Path(path), "wb") as handle:
-            np.savez_compressed(handle, **arrays)
+        head = self.fitted
+        meta, arrays = self._saved_state(head.inputs)  # the inputs the fit started from, not the warped ones
+        meta.update(format=FORMAT, resolution=head.resolution, seed=head.seed, warnings=self.warnings)
+        arrays.update(mesh_vertices=head.mesh_vertices, mesh_faces=head.mesh_faces.astype(np.int32),
+                      landmarks=head.landmarks, passive_offset=self._passive_offset)
+        self._write(path, meta, arrays)
 
     @classmethod
     def load(cls, path: str | Path) -> "FittedFaceRig":
         """Read a rig written by :meth:`save` (never unpickles anything); refits deterministically."""
-        try:
-            with np.load(Path(path), allow_pickle=False) as data:
-                meta = json.loads(bytes(data["meta_json"]).decode("utf-8"))
-                if meta.get("format") != FORMAT:
-                    raise UserError(f"{path}: not a Faces & Hands fitted face rig (format {meta.get('format')!r})")
-                contours = {name: data[f"contour__{name}"] for name in meta["contours"]}
-                inputs = TemplateInputs(data["canonical_vertices"], data["canonical_faces"], contours,
-                                        data["skull_vertices"], data["skull_faces"], data["jaw_vertices"],
-                                        data["jaw_faces"], meta["landmarks_json"], meta["muscles_json"])
-                mesh = (data["mesh_vertices"], data["mesh_faces"], data["landmarks"])
-                state = {k: data[k] for k in ("positions", "velocity", "anchor", "mirror", "passive_offset")}
-                mass_scale = float(data["mass_scale"][0])
-                guards = {g: {k.split("__", 1)[1]: data[k] for k in data.files if k.startswith(g + "__")}
-                          for g in ("bone_guard", "teeth_guard")}
-        except (OSError, KeyError, ValueError) as exc:
-            raise UserError(f"{path}: cannot read the fitted face rig ({exc})") from None
-        head = fit_head(*mesh, seed=int(meta["seed"]), resolution=meta["resolution"], inputs=inputs)
-        rig = cls(head, SkinMaterial(**meta["material"]))
-        rig.warnings = list(meta.get("warnings", rig.warnings))
-        rig.set_controls(meta["controls"], strict=False)
-        if state["positions"].shape != rig.face.network.positions.shape:
+        saved = read_saved_rig(path, FORMAT, "fitted face rig",
+                               extra=("mesh_vertices", "mesh_faces", "landmarks", "passive_offset"))
+        mesh = (saved.arrays["mesh_vertices"], saved.arrays["mesh_faces"], saved.arrays["landmarks"])
+        head = fit_head(*mesh, seed=int(saved.meta["seed"]), resolution=saved.meta["resolution"],
+                        inputs=saved.inputs)
+        rig = cls(head, SkinMaterial(**saved.meta["material"]))
+        rig.warnings = list(saved.meta.get("warnings", rig.warnings))
+        if saved.arrays["positions"].shape != rig.face.network.positions.shape:
             raise UserError(f"{path}: the saved state does not match the refitted rig; fit the rig again")
-        rig.face.network.positions[...] = state["positions"]
-        rig.face.integrator.velocity[...] = state["velocity"]
-        rig.face.network.set_attachment_targets(state["anchor"], state["mirror"])
-        rig.face.integrator.mass_scale = mass_scale
-        rig._passive_offset = np.array(state["passive_offset"], np.float64)
-        jaw = rig._jaw()
-        for name, guard_state in guards.items():
-            guard = getattr(rig.face, name)
-            guard.set_bone_transforms([np.eye(4), jaw])
-            guard.set_state(guard_state)
-        rig.face.integrator.started = bool(meta["started"])
-        rig.time = float(meta["time"])
+        rig._restore_state(saved)
+        rig._passive_offset = np.array(saved.arrays["passive_offset"], np.float64)
         return rig
 
 

@@ -19,6 +19,7 @@ Deterministic: the same template, material, control values and frame times give 
 from __future__ import annotations
 
 import json
+from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 
@@ -212,16 +213,14 @@ class FaceRig:
         return {k: v.astype(np.float32) for k, v in self.template.wrinkle_regions.items()}
 
     # -- persistence -----------------------------------------------------------------------------
-    def save(self, path: str | Path) -> None:
-        """Write the rig to ``path`` (.npz, ``allow_pickle=False`` safe): build inputs, material, controls
-        and simulation state. :meth:`load` rebuilds the template from the inputs (deterministic)."""
-        inputs = self.template.inputs
-        meta = {"format": FORMAT, "resolution": self.template.resolution, "material": self.material.to_dict(),
-                "controls": self.controls, "time": self.time, "started": self.face.integrator.started,
-                "contours": sorted(inputs.contours), "landmarks_json": inputs.landmarks_json,
-                "muscles_json": inputs.muscles_json}
-        arrays = {"meta_json": np.frombuffer(json.dumps(meta, sort_keys=True).encode("utf-8"), np.uint8),
-                  "canonical_vertices": inputs.canonical_vertices, "canonical_faces": inputs.canonical_faces,
+    def _saved_state(self, inputs: TemplateInputs | None = None) -> tuple[dict, dict[str, np.ndarray]]:
+        """Metadata and arrays every saved rig holds: the build ``inputs`` (default: the template's),
+        material, controls, simulation and guard state (shared by :meth:`save` and ``FittedFaceRig.save``)."""
+        inputs = self.template.inputs if inputs is None else inputs
+        meta = {"material": self.material.to_dict(), "controls": self.controls, "time": self.time,
+                "started": self.face.integrator.started, "contours": sorted(inputs.contours),
+                "landmarks_json": inputs.landmarks_json, "muscles_json": inputs.muscles_json}
+        arrays = {"canonical_vertices": inputs.canonical_vertices, "canonical_faces": inputs.canonical_faces,
                   "skull_vertices": inputs.skull_vertices, "skull_faces": inputs.skull_faces,
                   "jaw_vertices": inputs.jaw_vertices, "jaw_faces": inputs.jaw_faces,
                   "positions": self.face.network.positions, "velocity": self.face.integrator.velocity,
@@ -229,12 +228,39 @@ class FaceRig:
                   "mass_scale": np.array([self.face.integrator.mass_scale])}
         for name, line in inputs.contours.items():
             arrays[f"contour__{name}"] = np.asarray(line)
-        for guard_name in ("bone_guard", "teeth_guard"):
+        for guard_name in GUARDS:
             for key, value in getattr(self.face, guard_name).state().items():
                 arrays[f"{guard_name}__{key}"] = value
-        path = Path(path)
-        with open(path, "wb") as handle:
-            np.savez_compressed(handle, **arrays)
+        return meta, arrays
+
+    @staticmethod
+    def _write(path: str | Path, meta: dict, arrays: dict[str, np.ndarray]) -> None:
+        meta_json = np.frombuffer(json.dumps(meta, sort_keys=True).encode("utf-8"), np.uint8)
+        with open(Path(path), "wb") as handle:
+            np.savez_compressed(handle, meta_json=meta_json, **arrays)
+
+    def save(self, path: str | Path) -> None:
+        """Write the rig to ``path`` (.npz, ``allow_pickle=False`` safe): build inputs, material, controls
+        and simulation state. :meth:`load` rebuilds the template from the inputs (deterministic)."""
+        meta, arrays = self._saved_state()
+        meta.update(format=FORMAT, resolution=self.template.resolution)
+        self._write(path, meta, arrays)
+
+    def _restore_state(self, saved: "SavedRig") -> None:
+        """Put back controls, simulation and guard state read by :func:`read_saved_rig`."""
+        self.set_controls(saved.meta["controls"], strict=False)
+        network, integrator = self.face.network, self.face.integrator
+        network.positions[...] = saved.arrays["positions"]
+        integrator.velocity[...] = saved.arrays["velocity"]
+        network.set_attachment_targets(saved.arrays["anchor"], saved.arrays["mirror"])
+        integrator.mass_scale = float(saved.arrays["mass_scale"][0])
+        jaw = self._jaw()
+        for name, state in saved.guards.items():
+            guard = getattr(self.face, name)
+            guard.set_bone_transforms([np.eye(4), jaw])
+            guard.set_state(state)
+        integrator.started = bool(saved.meta["started"])
+        self.time = float(saved.meta["time"])
 
     @classmethod
     def load(cls, path: str | Path) -> "FaceRig":
@@ -243,37 +269,45 @@ class FaceRig:
         from . import fitted
         if fitted.is_fitted_rig_file(path):
             return fitted.FittedFaceRig.load(path)
-        try:
-            with np.load(Path(path), allow_pickle=False) as data:
-                meta = json.loads(bytes(data["meta_json"]).decode("utf-8"))
-                if meta.get("format") != FORMAT:
-                    raise UserError(f"{path}: not a Faces & Hands face rig (format {meta.get('format')!r})")
-                contours = {name: data[f"contour__{name}"] for name in meta["contours"]}
-                inputs = TemplateInputs(data["canonical_vertices"], data["canonical_faces"], contours,
-                                        data["skull_vertices"], data["skull_faces"], data["jaw_vertices"],
-                                        data["jaw_faces"], meta["landmarks_json"], meta["muscles_json"])
-                positions, velocity = data["positions"], data["velocity"]
-                anchor, mirror, mass_scale = data["anchor"], data["mirror"], float(data["mass_scale"][0])
-                guards = {g: {k.split("__", 1)[1]: data[k] for k in data.files if k.startswith(g + "__")}
-                          for g in ("bone_guard", "teeth_guard")}
-        except (OSError, KeyError, ValueError) as exc:
-            raise UserError(f"{path}: cannot read the face rig ({exc})") from None
-        rig = cls(build_template(meta["resolution"], inputs), SkinMaterial(**meta["material"]))
-        rig.set_controls(meta["controls"], strict=False)
-        if positions.shape != rig.face.network.positions.shape:
+        saved = read_saved_rig(path, FORMAT, "face rig")
+        rig = cls(build_template(saved.meta["resolution"], saved.inputs), SkinMaterial(**saved.meta["material"]))
+        if saved.arrays["positions"].shape != rig.face.network.positions.shape:
             raise UserError(f"{path}: the saved state does not match the rebuilt rig; rebuild the rig")
-        rig.face.network.positions[...] = positions
-        rig.face.integrator.velocity[...] = velocity
-        rig.face.network.set_attachment_targets(anchor, mirror)
-        rig.face.integrator.mass_scale = mass_scale
-        jaw = rig._jaw()
-        for name, state in guards.items():
-            guard = getattr(rig.face, name)
-            guard.set_bone_transforms([np.eye(4), jaw])
-            guard.set_state(state)
-        rig.face.integrator.started = bool(meta["started"])
-        rig.time = float(meta["time"])
+        rig._restore_state(saved)
         return rig
+
+
+GUARDS = ("bone_guard", "teeth_guard")
+STATE_ARRAYS = ("positions", "velocity", "anchor", "mirror", "mass_scale")
+
+
+@dataclass
+class SavedRig:
+    """What :func:`read_saved_rig` read from a saved rig: metadata, template inputs, state and guard arrays
+    (``arrays`` also holds any ``extra`` arrays the caller asked for)."""
+    meta: dict
+    inputs: TemplateInputs
+    arrays: dict[str, np.ndarray]
+    guards: dict[str, dict[str, np.ndarray]]
+
+
+def read_saved_rig(path: str | Path, expected_format: str, what: str, extra: tuple[str, ...] = ()) -> SavedRig:
+    """Read a rig ``.npz`` (never unpickles anything), checking its format; bad files raise UserError."""
+    try:
+        with np.load(Path(path), allow_pickle=False) as data:
+            meta = json.loads(bytes(data["meta_json"]).decode("utf-8"))
+            if meta.get("format") != expected_format:
+                raise UserError(f"{path}: not a Faces & Hands {what} (format {meta.get('format')!r})")
+            contours = {name: data[f"contour__{name}"] for name in meta["contours"]}
+            inputs = TemplateInputs(data["canonical_vertices"], data["canonical_faces"], contours,
+                                    data["skull_vertices"], data["skull_faces"], data["jaw_vertices"],
+                                    data["jaw_faces"], meta["landmarks_json"], meta["muscles_json"])
+            arrays = {key: data[key] for key in STATE_ARRAYS + tuple(extra)}
+            guards = {g: {k.split("__", 1)[1]: data[k] for k in data.files if k.startswith(g + "__")}
+                      for g in GUARDS}
+    except (OSError, KeyError, ValueError) as exc:
+        raise UserError(f"{path}: cannot read the {what} ({exc})") from None
+    return SavedRig(meta, inputs, arrays, guards)
 
 
 def _attachment_matrix(template: HeadTemplate):
