@@ -89,7 +89,7 @@ def enable(user_dir: Path, quiet: bool = False):
             os.dup2(stdout_fd, 1)
             os.close(stdout_fd)
     use_user_dir(user_dir)
-    bpy = _quiet_bpy()
+    _quiet_bpy()  # bpy must be imported before addon_utils
     import addon_utils
     if MODULE not in sys.modules or not getattr(sys.modules[MODULE], "_registered", False):
         addon_utils.enable(MODULE, default_set=True, handle_error=_raise)
