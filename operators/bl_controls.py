@@ -53,8 +53,3 @@ def effective_values(obj, ranges: dict[str, tuple[float, float]]) -> dict[str, f
                 total += float(obj[name])
         values[control] = min(max(total, low), high)
     return values
-
-
-def layer_values(obj, layer: str) -> dict[str, float]:
-    prefix = f"fh.{layer}."
-    return {k[len(prefix):]: float(obj[k]) for k in obj.keys() if k.startswith(prefix)}

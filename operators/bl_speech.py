@@ -82,13 +82,13 @@ def _curves_for_take(obj, take, scene, start_frame):
     return owner, curves
 
 
-def _remove_previous_take(obj, owner, take_target: str) -> None:
+def _remove_previous_take(scene, obj, owner, take_target: str) -> None:
     if take_target == "muscles":
         bl_anim.remove_fcurves(owner, (bl_controls.layer_prefix("speech"),))
     else:
         names = [alias for v in VISEMES for alias in (v, *VISEME_ALIASES.get(v, ()))]
         bl_anim.remove_fcurves(owner, tuple(VISEME_PATH.format(v) for v in names))
-    editor = bpy.context.scene.sequence_editor
+    editor = scene.sequence_editor
     if editor is not None:
         for strip in [s for s in editor.strips if s.name.startswith(f"{STRIP_PREFIX} {obj.name}")]:
             sound = getattr(strip, "sound", None)
@@ -140,13 +140,13 @@ def apply_take(scene, obj, take, *, start_frame: int | None = None, audio_path: 
         for track in take.tracks:
             low, high = take.ranges.get(track.name, (0.0, 1.0))
             bl_controls.ensure_property(obj, track.name, "speech", low, high)
-    _remove_previous_take(obj, owner, take.target)
+    _remove_previous_take(scene, obj, owner, take.target)
     try:
         bl_anim.write_curves(owner, curves, action_name=f"{obj.name} Speech", group="Speech")
         if add_sound:
             _add_sound_strip(scene, obj, take, start, audio_path)
     except Exception:
-        _remove_previous_take(obj, owner, take.target)
+        _remove_previous_take(scene, obj, owner, take.target)
         raise
     end_frame = int(np.ceil(start + take.duration * scene_fps(scene)))
     extended = ""

@@ -10,14 +10,9 @@ from __future__ import annotations
 
 import time
 
-import bpy
 
 from ..faces_hands_addon.errors import UserError
 from .hardened import HardenedOperator
-
-
-class JobCancelled(Exception):
-    """Raised when the user cancelled a job (ESC)."""
 
 
 class Job:
@@ -124,17 +119,3 @@ class JobOperator(HardenedOperator):
         self._job.cleanup()
         self.report({"INFO"}, report)
         return {"FINISHED"}
-
-
-def window_manager_progress(context):
-    """A ``progress(fraction, message)`` callback driving the window manager's progress cursor."""
-    wm = getattr(context, "window_manager", None)
-    if wm is None or bpy.app.background:
-        return None
-    wm.progress_begin(0, 100)
-
-    def update(fraction, message=""):
-        wm.progress_update(int(fraction * 100))
-        if fraction >= 1.0:
-            wm.progress_end()
-    return update
