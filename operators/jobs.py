@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import time
 
-
 from ..faces_hands_addon.errors import UserError
 from .hardened import HardenedOperator
 
