@@ -2,11 +2,13 @@
 """Faces & Hands: communicative virtual humans for Blender (after I. Albrecht, *Faces and Hands*, 2005).
 
 This file is the extension entry point and only registers ``operators/`` and ``panels/``, through
-``operators.registry`` (the one place that registers and unregisters anything). The science lives in
+``operators.common.registry`` (the one place that registers and unregisters anything). The science lives in
 the Blender-free engine ``faces_hands_addon/``.
 """
 from . import operators, panels
-from .operators import cli, registry
+from .operators import cli
+from .operators.common import registry
+from .operators.common.paths import configure_presets
 
 _registered = False
 
@@ -17,12 +19,15 @@ def register():
         classes=panels.PROPERTY_CLASSES + operators.CLASSES + panels.CLASSES,
         properties=panels.PROPERTIES,
         handlers=operators.HANDLERS,
+        menus=panels.MENUS,
         cli_commands=[("faces_hands", cli.blender_cli_entry)],
     )
+    configure_presets(__package__)
     _registered = True
 
 
 def unregister():
     global _registered
     registry.unregister_all()
+    configure_presets(None)
     _registered = False

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Face simulation speed (issue 3, "Performance"): engine figures for the default head (~2.9k skin nodes)
+"""Face simulation speed : engine figures for the default head (~2.9k skin nodes)
 and the 10k variant (~11k nodes), on one core.
 
 Prints, per resolution: nodes and springs, the substeps per frame the stability guard picks, raw spring
@@ -127,17 +127,18 @@ def push_ms(rig, repeats: int = 200) -> float:
 def live_preview_fps(frames: int = 96) -> tuple[float, int]:
     """The add-on's live step on the default head in Blender (read controls, simulate, push everything)."""
     import bpy
-    ops_face = _harness.EXTENSION.operators.ops_face
+    live = _harness.EXTENSION.operators.common.live
+    muscles = _harness.EXTENSION.operators.face.objects.update_muscle_display
     bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
     bpy.ops.faces_hands.build_face_rig()
     obj = bpy.context.active_object
     for frame in range(3):
-        ops_face.live_step(bpy.context, obj, FRAME_DT)
+        live.live_step(bpy.context, obj, muscles, FRAME_DT)
     started = time.perf_counter()
     for frame in range(frames):
         for name, value in _animated_controls(frame).items():
             obj[f"fh.ctrl.{name}"] = float(value)
-        ops_face.live_step(bpy.context, obj, FRAME_DT)
+        live.live_step(bpy.context, obj, muscles, FRAME_DT)
     return frames / (time.perf_counter() - started), len(obj.data.vertices)
 
 

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Speech performance for 30 s of speech (issue 4): text-to-speech + Utterance, forced alignment of
+"""Speech performance for 30 s of speech: text-to-speech + Utterance, forced alignment of
 recorded audio, coarticulated tracks (muscles and visemes), each also as a ratio to real time.
 
 Goals: tracks + keyframes for 30 s in < 1 s; alignment faster than 0.3x real time. (The thesis needed
@@ -77,13 +77,13 @@ def main() -> None:
 
 
 def time_keyframes(utterance, fps: int) -> float:
-    """Time ``bl_speech.apply_take`` (the operators' write path) for both targets, sound strip excluded."""
+    """Time ``apply_take`` (the speech operators' write path) for both targets, sound strip excluded."""
     import bpy
     from faces_hands_addon.speech.takes import take_from_utterance
-    bl_speech = _harness.EXTENSION.operators.bl_speech
+    apply = _harness.EXTENSION.operators.speech.apply
     bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
     scene = bpy.context.scene
-    scene.render.fps, scene.render.fps_base = fps, 1.0
+    _harness.EXTENSION.operators.common.timing.set_scene_fps(scene, fps)
     rig = bpy.data.objects.new("BenchRig", None)
     rig["fh_rig"] = 1
     mesh = bpy.data.meshes.new("BenchVisemes")
@@ -100,7 +100,7 @@ def time_keyframes(utterance, fps: int) -> float:
 
     def write():
         for obj, take in takes:
-            bl_speech.apply_take(scene, obj, take, add_sound=False)
+            apply.apply_take(scene, obj, take, add_sound=False)
     seconds, _ = best_of(3, write)
     return seconds
 

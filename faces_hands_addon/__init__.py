@@ -5,6 +5,6 @@ One package per part of the thesis (I. Albrecht, *Faces and Hands*, 2005); opera
 plain arrays and dataclasses it returns into Blender data, so the same code serves the N-panel,
 ``blender -b -c faces_hands ...`` batch bakes and the tests.
 """
-from .errors import UserError
+from .core.errors import UserError
 
 __all__ = ["UserError"]

@@ -29,7 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import UserError
+from .core.errors import UserError
+from .core.geometry import vertex_normals
 from .meshio import read_glb, read_obj, read_stl
 
 ASSETS_DIR = Path(__file__).resolve().parents[1] / "assets"
@@ -162,19 +163,6 @@ def _unit_rows(vectors: np.ndarray) -> np.ndarray:
     return vectors / np.where(norms > 0, norms, 1.0)
 
 
-def _vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """Area-weighted vertex normals of a triangle mesh."""
-    tri = vertices[faces]
-    face_n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    normals = np.zeros_like(vertices)
-    for axis in range(3):
-        for corner in range(3):
-            normals[:, axis] += np.bincount(faces[:, corner], face_n[:, axis], len(vertices))
-    return _unit_rows(normals)
-
-
-# ------------------------------------------------------------------------------------ MediaPipe
-
 def canonical_face() -> Mesh:
     """MediaPipe's canonical face (468 vertices = landmarks 0..467, 898 triangles), metres.
 
@@ -185,7 +173,7 @@ def canonical_face() -> Mesh:
         raise UserError("canonical_face.obj: expected 468 vertices with one UV each; run `make assets`")
     vertices = MEDIAPIPE_SCALE * data.vertices @ MEDIAPIPE_TO_FH.T
     return Mesh("canonical_face", vertices, data.faces, data.vertex_uvs.copy(),
-                _vertex_normals(vertices, data.faces))
+                vertex_normals(vertices, data.faces))
 
 
 def face_contours() -> FaceContours:
@@ -211,7 +199,7 @@ def _myo_mesh(stem: str, offset: np.ndarray | None = None) -> Mesh:
     if offset is not None:
         vertices = vertices + offset
     vertices = vertices @ OPENSIM_TO_FH.T
-    return Mesh(stem, vertices, faces, None, _vertex_normals(vertices, faces))
+    return Mesh(stem, vertices, faces, None, vertex_normals(vertices, faces))
 
 
 def skull() -> Mesh:

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import UserError
+from .core.errors import UserError
 
 
 @dataclass
@@ -225,7 +225,19 @@ def read_glb(path: str | Path) -> GlbData:
         raise _bad(path, f"malformed or truncated GLB ({exc.__class__.__name__}: {exc})") from None
 
 
-def _parse_glb(path: Path, blob: bytes) -> GlbData:
+def glb_document(path: str | Path) -> dict:
+    """The JSON document of a GLB file (e.g. to list its morph targets and animations)."""
+    path = Path(path)
+    try:
+        return _glb_chunks(path, path.read_bytes())[0]
+    except OSError as exc:
+        raise _bad(path, f"cannot read ({exc.strerror})") from None
+    except (struct.error, KeyError, ValueError, UnicodeDecodeError) as exc:
+        raise _bad(path, f"malformed or truncated GLB ({exc.__class__.__name__}: {exc})") from None
+
+
+def _glb_chunks(path: Path, blob: bytes) -> tuple[dict, bytes]:
+    """The JSON document and the binary chunk of a GLB file (header and chunk sizes checked)."""
     if len(blob) < 20:
         raise _bad(path, "too short to be a GLB file")
     magic, version, length = struct.unpack_from("<III", blob, 0)
@@ -241,30 +253,61 @@ def _parse_glb(path: Path, blob: bytes) -> GlbData:
         chunks.setdefault(kind, blob[offset + 8:offset + 8 + size])
         offset += 8 + size
     gltf = json.loads(chunks[0x4E4F534A].decode("utf-8"))
-    binary = chunks.get(0x004E4942, b"")
     for buffer in gltf.get("buffers", []):
         if "uri" in buffer:
             raise _bad(path, "external buffers are not supported (GLB with embedded BIN only)")
+    return gltf, chunks.get(0x004E4942, b"")
+
+
+def _accessor(path: Path, gltf: dict, binary: bytes, index: int) -> np.ndarray:
+    """Accessor ``index`` as a (count, width) array (strides honoured, bounds checked)."""
+    acc = gltf["accessors"][index]
+    if "sparse" in acc:
+        raise _bad(path, "sparse accessors are not supported")
+    dtype = np.dtype(_COMPONENTS[acc["componentType"]])
+    width, count = _WIDTH[acc["type"]], acc["count"]
+    view = gltf["bufferViews"][acc["bufferView"]]
+    start = view.get("byteOffset", 0) + acc.get("byteOffset", 0)
+    stride = view.get("byteStride") or width * dtype.itemsize
+    end = start + stride * (count - 1) + width * dtype.itemsize
+    if count < 1 or end > len(binary) or end > view.get("byteOffset", 0) + view["byteLength"]:
+        raise _bad(path, f"accessor {index} reaches past its buffer (truncated?)")
+    raw = np.lib.stride_tricks.as_strided(
+        np.frombuffer(binary, np.uint8, count=end - start, offset=start),
+        shape=(count, width * dtype.itemsize), strides=(stride, 1))
+    values = np.ascontiguousarray(raw).view(dtype).reshape(count, width)
+    if acc.get("normalized") and dtype.kind in "iu":
+        values = values.astype(np.float64) / np.iinfo(dtype).max
+    return values
+
+
+def _primitive(path: Path, prim: dict, accessor) -> GltfPrimitive:
+    if prim.get("mode", 4) != 4:
+        raise _bad(path, "only triangle primitives are supported")
+    attrs = prim["attributes"]
+    positions = accessor(attrs["POSITION"]).astype(np.float64)
+    if "indices" in prim:
+        flat = accessor(prim["indices"]).astype(np.int64).ravel()
+    else:
+        flat = np.arange(len(positions), dtype=np.int64)
+    if len(flat) % 3 or (len(flat) and (flat.min() < 0 or flat.max() >= len(positions))):
+        raise _bad(path, "triangle indices out of range")
+    p = GltfPrimitive(positions, flat.reshape(-1, 3))
+    if "NORMAL" in attrs:
+        p.normals = accessor(attrs["NORMAL"]).astype(np.float64)
+    if "TEXCOORD_0" in attrs:
+        p.uvs = accessor(attrs["TEXCOORD_0"]).astype(np.float64)
+    if "JOINTS_0" in attrs:
+        p.joints = accessor(attrs["JOINTS_0"]).astype(np.int64)
+        p.weights = accessor(attrs["WEIGHTS_0"]).astype(np.float64)
+    return p
+
+
+def _parse_glb(path: Path, blob: bytes) -> GlbData:
+    gltf, binary = _glb_chunks(path, blob)
 
     def accessor(index: int) -> np.ndarray:
-        acc = gltf["accessors"][index]
-        if "sparse" in acc:
-            raise _bad(path, "sparse accessors are not supported")
-        dtype = np.dtype(_COMPONENTS[acc["componentType"]])
-        width, count = _WIDTH[acc["type"]], acc["count"]
-        view = gltf["bufferViews"][acc["bufferView"]]
-        start = view.get("byteOffset", 0) + acc.get("byteOffset", 0)
-        stride = view.get("byteStride") or width * dtype.itemsize
-        end = start + stride * (count - 1) + width * dtype.itemsize
-        if count < 1 or end > len(binary) or end > view.get("byteOffset", 0) + view["byteLength"]:
-            raise _bad(path, f"accessor {index} reaches past its buffer (truncated?)")
-        raw = np.lib.stride_tricks.as_strided(
-            np.frombuffer(binary, np.uint8, count=end - start, offset=start),
-            shape=(count, width * dtype.itemsize), strides=(stride, 1))
-        values = np.ascontiguousarray(raw).view(dtype).reshape(count, width)
-        if acc.get("normalized") and dtype.kind in "iu":
-            values = values.astype(np.float64) / np.iinfo(dtype).max
-        return values
+        return _accessor(path, gltf, binary, index)
 
     nodes = []
     for i, node in enumerate(gltf.get("nodes", [])):
@@ -273,30 +316,7 @@ def _parse_glb(path: Path, blob: bytes) -> GlbData:
     for i, node in enumerate(nodes):
         for child in node.children:
             nodes[child].parent = i
-    meshes = []
-    for mesh in gltf.get("meshes", []):
-        prims = []
-        for prim in mesh["primitives"]:
-            if prim.get("mode", 4) != 4:
-                raise _bad(path, "only triangle primitives are supported")
-            attrs = prim["attributes"]
-            positions = accessor(attrs["POSITION"]).astype(np.float64)
-            if "indices" in prim:
-                flat = accessor(prim["indices"]).astype(np.int64).ravel()
-            else:
-                flat = np.arange(len(positions), dtype=np.int64)
-            if len(flat) % 3 or (len(flat) and (flat.min() < 0 or flat.max() >= len(positions))):
-                raise _bad(path, "triangle indices out of range")
-            p = GltfPrimitive(positions, flat.reshape(-1, 3))
-            if "NORMAL" in attrs:
-                p.normals = accessor(attrs["NORMAL"]).astype(np.float64)
-            if "TEXCOORD_0" in attrs:
-                p.uvs = accessor(attrs["TEXCOORD_0"]).astype(np.float64)
-            if "JOINTS_0" in attrs:
-                p.joints = accessor(attrs["JOINTS_0"]).astype(np.int64)
-                p.weights = accessor(attrs["WEIGHTS_0"]).astype(np.float64)
-            prims.append(p)
-        meshes.append(prims)
+    meshes = [[_primitive(path, prim, accessor) for prim in mesh["primitives"]] for mesh in gltf.get("meshes", [])]
     skins = []
     for skin in gltf.get("skins", []):
         joints = list(skin["joints"])

@@ -1,9 +1,13 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Blender operators and the thin helpers that convert between Blender data and the engine.
+"""Blender operators, grouped by subsystem; ``common`` holds what they share.
 
-``CLASSES`` and ``HANDLERS`` are what the extension root registers through ``registry``.
+Each subsystem package (``face``, ``speech``, ...) exposes ``CLASSES`` (its operators) and ``COMMANDS``
+(its command-line subcommands: ``NAME``, ``HELP``, ``add_arguments(parser)``, ``run(args, progress)``);
+this module collects them for the extension root and for ``cli``.
 """
-from . import ops_face, ops_fit, ops_info, ops_speech
+from . import face, general, hand, morph, speech
 
-CLASSES = [*ops_info.CLASSES, *ops_face.CLASSES, *ops_fit.CLASSES, *ops_speech.CLASSES]
+SUBSYSTEMS = (general, face, speech, morph, hand)
+CLASSES = [cls for package in SUBSYSTEMS for cls in package.CLASSES]
+COMMANDS = [command for package in SUBSYSTEMS for command in package.COMMANDS]
 HANDLERS = []

@@ -1,8 +1,9 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """The ``faces_hands`` command line: ``blender -b -c faces_hands <subcommand> ...`` and ``./fh``.
 
-Both call :func:`main` with the arguments after the command name. Every subcommand lives in a
-module that exposes ``NAME``, ``HELP``, ``add_arguments(parser)`` and ``run(args, progress) -> int``.
+Both call :func:`main` with the arguments after the command name. The subcommands come from the subsystem
+packages (``operators.COMMANDS``); each exposes ``NAME``, ``HELP``, ``add_arguments(parser)`` and
+``run(args, progress) -> int``.
 Bad input exits non-zero with one line ``faces_hands: error: ...`` (no traceback) and writes nothing;
 ``--debug`` shows the traceback of unexpected errors.
 """
@@ -13,11 +14,22 @@ import sys
 import time
 import traceback
 
-from ..faces_hands_addon.errors import UserError
+from ..faces_hands_addon.core.errors import UserError
+from .common.interrupts import Terminated, clear, interruptible, raise_pending
+from .common.outputs import ledger_mark, written_since
 
 
 class CommandLineError(Exception):
     """Raised instead of argparse's print-usage-and-exit, so the message stays one line."""
+
+
+def _interrupt_report(error: KeyboardInterrupt, mark: int) -> str:
+    files = written_since(mark)
+    what = "terminated" if isinstance(error, Terminated) else "interrupted"
+    if not files:
+        return f"faces_hands: {what}; nothing was written"
+    shown = ", ".join(str(p) for p in files[:20]) + (f" and {len(files) - 20} more" if len(files) > 20 else "")
+    return f"faces_hands: {what}; written before that: {shown} (nothing else was written)"
 
 
 class _Parser(argparse.ArgumentParser):
@@ -31,24 +43,28 @@ class _Parser(argparse.ArgumentParser):
 
 
 class Progress:
-    """Prints ``[ 42%] message`` lines on stderr for long work (the CLI's progress bar)."""
+    """Prints ``[ 42%] message`` lines on stderr for long work (the CLI's progress bar): every 5 % and
+    whenever the message changes, never the same line twice."""
 
     def __init__(self, quiet: bool = False):
         self.quiet = quiet
         self._last = -1.0
+        self._message = ""
 
     def __call__(self, fraction: float, message: str = "") -> None:
+        raise_pending()                     # an interrupt a C callback swallowed (common.interrupts)
         if self.quiet:
             return
         percent = max(0.0, min(1.0, fraction)) * 100.0
-        if percent - self._last >= 5.0 or percent >= 100.0 or message:
+        new_message = bool(message) and message != self._message
+        if percent - self._last >= 5.0 or (percent >= 100.0 > self._last) or new_message:
             print(f"[{percent:3.0f}%] {message}", file=sys.stderr, flush=True)
-            self._last = percent
+            self._last, self._message = percent, message or self._message
 
 
-def _subcommand_modules():
-    from . import cli_commands
-    return cli_commands.MODULES
+def _subcommands():
+    from . import COMMANDS
+    return COMMANDS
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -58,7 +74,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--debug", action="store_true", help="show tracebacks of unexpected errors")
     parser.add_argument("--quiet", action="store_true", help="no progress output")
     subparsers = parser.add_subparsers(dest="command", metavar="<subcommand>", parser_class=_Parser)
-    for module in _subcommand_modules():
+    for module in _subcommands():
         sub = subparsers.add_parser(module.NAME, help=module.HELP, description=module.HELP)
         module.add_arguments(sub)
         sub.set_defaults(_run=module.run)
@@ -70,22 +86,25 @@ def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     parser = build_parser()
     debug = "--debug" in argv
+    mark = ledger_mark()
     try:
         args = parser.parse_args(argv)
         if args.command is None:
             parser.print_help()
             return 2
         started = time.perf_counter()
-        code = args._run(args, Progress(quiet=args.quiet))
+        with interruptible():
+            code = args._run(args, Progress(quiet=args.quiet))
         if not args.quiet:
             print(f"done in {time.perf_counter() - started:.1f} s", file=sys.stderr)
         return int(code or 0)
     except (UserError, CommandLineError) as error:
         print(f"faces_hands: error: {error}", file=sys.stderr)
         return 2 if isinstance(error, CommandLineError) else 1
-    except KeyboardInterrupt:
-        print("faces_hands: interrupted; nothing was written", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as error:
+        clear()
+        print(_interrupt_report(error, mark), file=sys.stderr)
+        return 143 if isinstance(error, Terminated) else 130
     except SystemExit as exit_request:
         return int(exit_request.code or 0)
     except Exception as error:  # an unexpected error is a bug: say so in one line

@@ -1,11 +1,13 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""The N-panel UI (sidebar tab "Faces & Hands"). Panels only draw; properties live in properties.py.
+"""The N-panel UI (sidebar tab "Faces & Hands"): one file per subsystem on the shared base of ``base``.
+Panels only draw; properties live in ``properties``.
 
-The extension root registers ``PROPERTY_CLASSES``, ``PROPERTIES`` and ``CLASSES`` through
-``operators.registry``.
+The extension root registers ``PROPERTY_CLASSES``, ``PROPERTIES``, ``CLASSES`` and ``MENUS`` through
+``operators.common.registry``.
 """
-from . import face_panel, main_panel, properties, speech_panel
+from . import face, hand, main, menus, morph, morph_properties, properties, speech
 
-PROPERTY_CLASSES = [*properties.CLASSES]
-PROPERTIES = [*properties.PROPERTIES]
-CLASSES = [*main_panel.CLASSES, *face_panel.CLASSES, *speech_panel.CLASSES]
+PROPERTY_CLASSES = [*properties.CLASSES, *morph_properties.CLASSES]
+PROPERTIES = [*properties.PROPERTIES, *morph_properties.PROPERTIES]
+CLASSES = [*main.CLASSES, *face.CLASSES, *speech.CLASSES, *morph.CLASSES, *hand.CLASSES, *menus.CLASSES]
+MENUS = menus.MENUS

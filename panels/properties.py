@@ -4,19 +4,10 @@ from __future__ import annotations
 
 import bpy
 
-_voice_cache: list[str] = []
-
-
 def _voice_search(self, context, edit_text):
-    """Suggest espeak-ng voices while typing (the list is read once per session)."""
-    if not _voice_cache:
-        try:
-            from ..faces_hands_addon.speech import list_voices
-            _voice_cache.extend(sorted({v.identifier for v in list_voices()} |
-                                       {lang for v in list_voices() for lang in v.languages}))
-        except Exception:  # espeak missing: offer nothing rather than break the UI
-            _voice_cache.append("en-us")
-    return [v for v in _voice_cache if edit_text.lower() in v.lower()]
+    """Suggest espeak-ng voices while typing."""
+    from ..faces_hands_addon.speech.espeak import voice_names
+    return [v for v in voice_names() if edit_text.lower() in v.lower()]
 
 
 class FH_SceneSettings(bpy.types.PropertyGroup):
@@ -31,8 +22,8 @@ class FH_SceneSettings(bpy.types.PropertyGroup):
         name="Text Block", type=bpy.types.Text,
         description="Speak this text datablock instead of the line above (for longer texts)")
     speech_voice: bpy.props.StringProperty(
-        name="Voice", default="en-us", search=_voice_search,
-        description="espeak-ng voice or language, e.g. en-us, en-gb, de, fr, ru")
+        name="Voice", default="", search=_voice_search,
+        description="espeak-ng voice or language, e.g. en-us, en-gb, de, fr, ru (empty: the preferences' voice)")
     speech_rate: bpy.props.IntProperty(name="Rate", default=175, min=80, max=450,
                                        description="Speaking rate in words per minute")
     speech_pitch: bpy.props.IntProperty(name="Pitch", default=50, min=0, max=100,
@@ -46,5 +37,14 @@ class FH_SceneSettings(bpy.types.PropertyGroup):
                                        "recognised, which is less accurate)")
 
 
-CLASSES = [FH_SceneSettings]
-PROPERTIES = [(bpy.types.Scene, "faces_hands", bpy.props.PointerProperty(type=FH_SceneSettings))]
+class FH_RuntimeState(bpy.types.PropertyGroup):
+    """Faces & Hands state of this Blender session (window manager: not meant to outlive the session)"""
+
+    live_object: bpy.props.StringProperty(
+        name="Live Object", default="", options={"SKIP_SAVE"},
+        description="The rig being simulated live (empty when the live simulation is off)")
+
+
+CLASSES = [FH_SceneSettings, FH_RuntimeState]
+PROPERTIES = [(bpy.types.Scene, "faces_hands", bpy.props.PointerProperty(type=FH_SceneSettings)),
+              (bpy.types.WindowManager, "faces_hands_runtime", bpy.props.PointerProperty(type=FH_RuntimeState))]

@@ -27,7 +27,9 @@ def manifest_version() -> str:
 
 
 def built_zip() -> Path:
-    return ROOT / "dist" / f"{EXTENSION_ID}-{manifest_version()}.zip"
+    """The zip `make build` makes for this interpreter's Python line, for Linux x64."""
+    from build_ext import line_of_python, zip_name
+    return ROOT / "dist" / zip_name(manifest_version(), line_of_python(), "linux-x64")
 
 
 def use_user_dir(user_dir: Path) -> None:
@@ -108,6 +110,38 @@ def alias_installed_engine() -> None:
     for info in pkgutil.walk_packages(package.__path__, prefix=installed + "."):
         module = importlib.import_module(info.name)
         sys.modules["faces_hands_addon" + info.name[len(installed):]] = module
+
+
+def _wheel_fits(name: str) -> bool:
+    """Does wheel file ``name`` install on this interpreter (Linux x64, this CPython line)?"""
+    import platform
+    parts = name[:-len(".whl")].split("-")
+    python_tag, platform_tag = parts[-3], parts[-1]
+    line = f"cp{sys.version_info[0]}{sys.version_info[1]}"
+    python_ok = any(tag in (line, "py3", "py2") for tag in python_tag.split("."))
+    machine = platform.machine().lower()
+    platform_ok = platform_tag == "any" or (sys.platform.startswith("linux") and "linux" in platform_tag
+                                            and machine in platform_tag)
+    return python_ok and platform_ok
+
+
+def unpack(zip_path: Path, folder: Path) -> tuple[Path, Path]:
+    """Unpack the built extension without Blender: its files into ``folder/faces_hands`` and the wheels
+    that fit this interpreter into ``folder/site-packages`` (what Blender's installer would do). Returns
+    both folders; put them on ``sys.path`` to import ``faces_hands_addon`` as shipped."""
+    import io
+    import zipfile
+    extension, site = folder / EXTENSION_ID, folder / "site-packages"
+    site.mkdir(parents=True, exist_ok=True)
+    with zipfile.ZipFile(zip_path) as archive:
+        for name in archive.namelist():
+            if name.endswith(".whl"):
+                if _wheel_fits(Path(name).name):
+                    with zipfile.ZipFile(io.BytesIO(archive.read(name))) as wheel:
+                        wheel.extractall(site)
+            else:
+                archive.extract(name, extension)
+    return extension, site
 
 
 def _raise(exc):

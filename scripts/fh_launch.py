@@ -7,6 +7,7 @@ Blender prints start-up chatter on stdout while ``bpy`` loads; it is kept off th
 from __future__ import annotations
 
 import os
+import shutil
 import sys
 from pathlib import Path
 
@@ -24,7 +25,19 @@ def main() -> int:
     if rest and rest[0] == "--":
         rest = rest[1:]
     extension = blender_env.enable(user_dir, quiet=True)  # Blender's start-up lines go to stderr
-    return extension.operators.cli.main(rest)
+    try:
+        return extension.operators.cli.main(rest)
+    finally:
+        _remove_session_folder()
+
+
+def _remove_session_folder() -> None:
+    """Blender's per-session temporary folder (``blender_XXXXXX``), which its teardown would remove; the
+    launcher skips that teardown (``os._exit``), so it removes the folder itself."""
+    import bpy  # noqa: PLC0415 - loaded by blender_env.enable
+    folder = Path(bpy.app.tempdir)
+    if folder.name.startswith("blender_") and folder.is_dir():
+        shutil.rmtree(folder, ignore_errors=True)
 
 
 if __name__ == "__main__":

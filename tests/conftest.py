@@ -1,14 +1,18 @@
-"""Test harness: every test runs against the *installed* extension.
+"""Test harness: every test runs against the *built* extension, never the source tree.
 
-At session start the built zip (``$FH_ZIP``, built by ``make test``) is installed into a fresh temporary
-Blender user folder inside the ``bpy`` module and enabled, exactly as a user installs it. Engine tests
-then import ``faces_hands_addon`` and get the installed copy (aliased from
-``bl_ext.user_default.faces_hands.faces_hands_addon``), never the source tree; add-on tests drive
-``bpy`` with the extension enabled. ``FH_TEST_FROM_SOURCE=1`` is a developer shortcut for quick engine
-iteration (engine tests only, source tree on sys.path); CI never sets it.
+With Blender's Python module (``bpy``) in this Python, the built zip (``$FH_ZIP``, built by ``make test``) is
+installed into a fresh temporary Blender user folder and enabled, exactly as a user installs it; engine
+tests then import ``faces_hands_addon`` as the installed copy (aliased from
+``bl_ext.user_default.faces_hands.faces_hands_addon``) and add-on tests drive ``bpy``.
+
+Without ``bpy`` (``make test-engine``: a plain Python with numpy and pytest), the zip is unpacked into a
+temporary folder, with its wheels for this platform, and only the engine tests run: they never need
+Blender. ``FH_TEST_FROM_SOURCE=1`` is a developer shortcut (engine tests, source tree on sys.path); CI never
+sets it.
 """
 from __future__ import annotations
 
+import importlib.util
 import os
 import shutil
 import sys
@@ -22,27 +26,41 @@ sys.path.insert(0, str(ROOT / "scripts"))
 import blender_env  # noqa: E402
 
 FROM_SOURCE = os.environ.get("FH_TEST_FROM_SOURCE") == "1"
+HAS_BPY = importlib.util.find_spec("bpy") is not None and not FROM_SOURCE
+ENGINE_ONLY = FROM_SOURCE or not HAS_BPY
 
 
 class Installed:
-    """Where the session's installed extension lives."""
+    """Where the session's extension lives (installed into bpy, or unpacked for engine-only runs)."""
     user_dir: Path | None = None
     extension_dir: Path | None = None
     zip_path: Path | None = None
+    unpacked: Path | None = None
+
+
+def _zip_path() -> Path:
+    zip_path = Path(os.environ.get("FH_ZIP") or blender_env.built_zip()).resolve()
+    if not zip_path.exists():
+        pytest.exit(f"{zip_path} does not exist; run the tests with `make test`", returncode=2)
+    return zip_path
 
 
 def _install_for_session() -> None:
     if FROM_SOURCE:
         sys.path.insert(0, str(ROOT))
         return
-    zip_path = Path(os.environ.get("FH_ZIP") or blender_env.built_zip()).resolve()
-    if not zip_path.exists():
-        pytest.exit(f"{zip_path} does not exist; run the tests with `make test`", returncode=2)
+    zip_path = _zip_path()
+    Installed.zip_path = zip_path
+    if not HAS_BPY:
+        folder = Path(tempfile.mkdtemp(prefix="fh-test-unpacked-"))
+        Installed.extension_dir, site = blender_env.unpack(zip_path, folder)
+        Installed.unpacked = folder
+        sys.path[:0] = [str(Installed.extension_dir), str(site)]
+        return
     user_dir = Path(tempfile.mkdtemp(prefix="fh-test-user-"))
     blender_env.install(zip_path, user_dir)
     Installed.user_dir = user_dir
     Installed.extension_dir = blender_env.extension_dir(user_dir)
-    Installed.zip_path = zip_path
     blender_env.alias_installed_engine()
 
 
@@ -50,8 +68,10 @@ _install_for_session()
 
 
 def pytest_collection_modifyitems(config, items):
-    if FROM_SOURCE:
-        skip = pytest.mark.skip(reason="FH_TEST_FROM_SOURCE=1 runs engine tests only")
+    if ENGINE_ONLY:
+        reason = ("FH_TEST_FROM_SOURCE=1 runs engine tests only" if FROM_SOURCE
+                  else "no bpy in this Python: engine tests only")
+        skip = pytest.mark.skip(reason=reason)
         for item in items:
             if "tests/engine/" not in str(item.fspath).replace(os.sep, "/"):
                 item.add_marker(skip)
@@ -67,8 +87,9 @@ def pytest_sessionfinish(session, exitstatus):
 def pytest_unconfigure(config):
     """Clean up, then leave without running bpy's atexit teardown: the bpy 4.5 module can hang forever
     in a destructor at interpreter exit (seen here: GlobalState::~GlobalState waiting on its thread)."""
-    if Installed.user_dir and Installed.user_dir.exists():
-        shutil.rmtree(Installed.user_dir, ignore_errors=True)
+    for folder in (Installed.user_dir, Installed.unpacked):
+        if folder and folder.exists():
+            shutil.rmtree(folder, ignore_errors=True)
     if "bpy" in sys.modules and _exit_status["code"] is not None:
         sys.stdout.flush()
         sys.stderr.flush()
@@ -77,9 +98,17 @@ def pytest_unconfigure(config):
 
 @pytest.fixture(scope="session")
 def installed() -> type[Installed]:
-    if FROM_SOURCE:
-        pytest.skip("needs the installed extension")
+    if not HAS_BPY:
+        pytest.skip("needs the extension installed in Blender's Python module")
     return Installed
+
+
+@pytest.fixture(scope="session")
+def built_extension() -> Path:
+    """The folder of the built extension's files (installed or unpacked), for tests that read them."""
+    if Installed.extension_dir is None:
+        pytest.skip("needs the built extension (not the source tree)")
+    return Installed.extension_dir
 
 
 @pytest.fixture(scope="session")
@@ -97,9 +126,27 @@ def bpy_clean(installed):
     bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
 
 
-def run_fh(installed, *args, cwd=None, timeout=600):
-    """Run the CLI the way ./fh does (same launcher), against the session's isolated install."""
+@pytest.fixture(scope="session")
+def head():
+    """Full synthetic head: a remeshed, sculpted face plus cranium cap, ears, neck and shoulders (chest ahead
+    of the nose), scaled and moved; read-only for the engine tests that share it."""
+    from faces_hands_addon.fitting import testdata
+    return testdata.full_head(0, spacing=0.005, body_spacing=0.02, scale=0.9, offset=(0.4, -0.3, 1.5))
+
+
+def addon_module(name: str):
+    """A module of the installed extension, by its path inside it (``operators.face.operators``)."""
+    return sys.modules[f"{blender_env.MODULE}.{name}"]
+
+
+def fh_command(installed, *args) -> list[str]:
+    """The command line ./fh runs (same launcher), against the session's isolated install."""
+    return [sys.executable, str(ROOT / "scripts" / "fh_launch.py"), "--user-dir", str(installed.user_dir),
+            "--", *map(str, args)]
+
+
+def run_fh(installed, *args, cwd=None, timeout=600, env=None):
+    """Run the CLI the way ./fh does, against the session's isolated install."""
     import subprocess
-    cmd = [sys.executable, str(ROOT / "scripts" / "fh_launch.py"), "--user-dir", str(installed.user_dir),
-           "--", *map(str, args)]
-    return subprocess.run(cmd, cwd=cwd or ROOT, capture_output=True, text=True, timeout=timeout)
+    return subprocess.run(fh_command(installed, *args), cwd=cwd or ROOT, capture_output=True, text=True,
+                          timeout=timeout, env=env)

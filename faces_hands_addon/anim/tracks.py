@@ -17,7 +17,7 @@ from typing import Iterable, Iterator, Mapping
 
 import numpy as np
 
-from ..errors import UserError
+from ..core.errors import UserError
 
 
 def frame_times(fps: float, start: float, end: float) -> np.ndarray:

@@ -1,26 +1,11 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Face controls (CONTRIBUTING.md "Controls"): muscle contractions in [0, 1] and the direct parameters of
+"""The face rig's controls (:class:`..core.controls.ControlSpec`): muscle contractions in [0, 1] and the direct parameters of
 thesis 3.1.1/3.1.2 (jaw, eyes, lids, tongue, lip protrusion), with ranges, defaults and UI regions."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from ..core.controls import ControlSpec
 
-import numpy as np
-
-from ..errors import UserError
-
-__all__ = ["ControlSpec", "DIRECT_CONTROLS", "muscle_control", "control_specs", "clamp_controls"]
-
-
-@dataclass(frozen=True)
-class ControlSpec:
-    name: str
-    minimum: float
-    maximum: float
-    default: float
-    region: str          # UI group: brow, eyes, nose, cheeks, mouth, jaw, tongue
-    kind: str            # "muscle" or "direct"
-    doc: str
+__all__ = ["DIRECT_CONTROLS", "muscle_control", "control_specs"]
 
 
 DIRECT_CONTROLS = (
@@ -58,21 +43,3 @@ def control_specs(muscle_names: list[str]) -> dict[str, ControlSpec]:
     specs.update({c.name: c for c in DIRECT_CONTROLS})
     return specs
 
-
-def clamp_controls(values: dict[str, float], specs: dict[str, ControlSpec], strict: bool = True) -> dict[str, float]:
-    """Clamp ``values`` to their ranges. Unknown names raise a :class:`UserError` when ``strict``."""
-    out = {}
-    for name, value in values.items():
-        spec = specs.get(name)
-        if spec is None:
-            if strict:
-                raise UserError(f"unknown face control {name!r}; see FaceRig.control_specs() for the names")
-            continue
-        try:
-            value = float(value)
-        except (TypeError, ValueError):
-            raise UserError(f"face control {name!r} needs a number, got {value!r}") from None
-        if not np.isfinite(value):
-            raise UserError(f"face control {name!r} needs a finite number, got {value!r}")
-        out[name] = float(np.clip(value, spec.minimum, spec.maximum))
-    return out

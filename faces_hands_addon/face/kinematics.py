@@ -123,29 +123,46 @@ class LidRig:
 
     def __init__(self, centre: np.ndarray, nodes: np.ndarray, upper_margin: np.ndarray,
                  lower_margin: np.ndarray, falloff_upper: float = 0.009, falloff_lower: float = 0.006,
-                 radius: float = 0.022, eyeball_radius: float = 0.012, surface: np.ndarray | None = None) -> None:
+                 radius: float = 0.022, eyeball_radius: float = 0.012, surface: np.ndarray | None = None,
+                 setup_radius: float | None = None, fade: np.ndarray | None = None) -> None:
+        """``setup_radius``: set the rig up only on the nodes that close to the eye centre (the others get
+        weight 0; a large artist's mesh need not be searched whole); ``fade`` (N,): a per-node factor on the
+        weight (0 off the face of a fitted head)."""
         self.centre = np.asarray(centre, np.float64)
         self.clear_radius = eyeball_radius + 0.0005
-        self.surface = np.ones(len(nodes), bool) if surface is None else np.asarray(surface, bool)
         nodes = np.asarray(nodes, np.float64)
+        self.surface = np.ones(len(nodes), bool) if surface is None else np.asarray(surface, bool)
         up, low = np.asarray(upper_margin, np.float64), np.asarray(lower_margin, np.float64)
         self._ux, self._ue = self._curve(up)
         self._lx, self._le = self._curve(low)
+        select = (np.arange(len(nodes)) if setup_radius is None
+                  else np.flatnonzero(np.linalg.norm(nodes - self.centre, axis=1) < setup_radius))
+        theta_u, theta_l, is_upper, weight = self._setup(nodes[select], up, low, falloff_upper, falloff_lower,
+                                                         radius)
+        self.theta_u, self.theta_l = np.zeros(len(nodes)), np.zeros(len(nodes))
+        self.is_upper, self.weight = np.zeros(len(nodes), bool), np.zeros(len(nodes))
+        self.theta_u[select], self.theta_l[select] = theta_u, theta_l
+        self.is_upper[select], self.weight[select] = is_upper, weight
+        if fade is not None:
+            self.weight = self.weight * np.asarray(fade, np.float64)
+        self.index = np.flatnonzero(self.weight > 0)
+
+    def _setup(self, nodes: np.ndarray, up: np.ndarray, low: np.ndarray, falloff_upper: float,
+               falloff_lower: float, radius: float):
+        """Per node: the margins' rest elevations above it, which lid it belongs to, and its weight."""
         x = nodes[:, 0]
         # beyond the canthi both margins meet: clamp to the corner elevation (np.interp does)
         theta_u = np.interp(x, self._ux, self._ue)
         theta_l = np.interp(x, self._lx, self._le)
         elevation = _elevation(nodes, self.centre)
         near = np.linalg.norm(nodes - self.centre, axis=1) < radius
-        self.is_upper = elevation > 0.5 * (theta_u + theta_l)
+        is_upper = elevation > 0.5 * (theta_u + theta_l)
         d_up = np.min(np.linalg.norm(nodes[:, None] - up[None], axis=2), axis=1)
         d_low = np.min(np.linalg.norm(nodes[:, None] - low[None], axis=2), axis=1)
-        distance = np.where(self.is_upper, d_up, d_low)
-        falloff = np.where(self.is_upper, falloff_upper, falloff_lower)
+        distance = np.where(is_upper, d_up, d_low)
+        falloff = np.where(is_upper, falloff_upper, falloff_lower)
         t = np.clip(1.0 - distance / falloff, 0.0, 1.0)
-        self.weight = np.where(near, t * t * (3 - 2 * t), 0.0)        # smoothstep
-        self.theta_u, self.theta_l = theta_u, theta_l
-        self.index = np.flatnonzero(self.weight > 0)
+        return theta_u, theta_l, is_upper, np.where(near, t * t * (3 - 2 * t), 0.0)        # smoothstep
 
     def _curve(self, margin: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Margin elevation as a function of x (sorted samples for ``np.interp``)."""

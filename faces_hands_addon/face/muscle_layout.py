@@ -17,21 +17,22 @@ bone, the last row the insertion. Sphincters: rows run along the ring (``closed`
 """
 from __future__ import annotations
 
-import json
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..errors import UserError
-from . import geometry
+from ..core.errors import UserError
+from ..core import geometry
+from ..core.presets import PresetFormat, parse_preset, read_preset_text, register_format, resolve
 
 __all__ = ["PointExpr", "MuscleSpec", "ConnectionSpec", "parse_point", "load_muscle_specs", "parse_muscle_specs", "PlacedMuscle",
-           "place_muscle", "MUSCLES_JSON"]
+           "place_muscle", "FORMAT"]
 
-MUSCLES_JSON = Path(__file__).resolve().parents[2] / "presets" / "face" / "muscles.json"
+FORMAT = register_format(PresetFormat("faces_hands.face_muscles", 1, required=("muscles",),
+                                     shape={"about": str, "muscles": [{}], "connections": [{}]}))
 _TERM = re.compile(r"^\s*(?:([0-9]*\.?[0-9]+)\s*\*\s*)?([0-9]+)\s*$")
 
 
@@ -118,21 +119,15 @@ def _coarse_cells(spec_text: str, shape: tuple[int, int]) -> list[tuple[int, int
 def load_muscle_specs(mirror: np.ndarray, path: Path | None = None) -> tuple[list[MuscleSpec], list[ConnectionSpec]]:
     """Muscles and connections from muscles.json; ``"mirror": true`` entries (named ``*_R``) also yield
     their ``*_L`` twin through the canonical face's left/right vertex map."""
-    path = Path(path or MUSCLES_JSON)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise UserError(f"{path}: cannot read the muscle layout ({exc}); restore the preset") from None
-    return parse_muscle_specs(text, mirror, str(path))
+    path = Path(path) if path else resolve("face/muscles.json")
+    return parse_muscle_specs(read_preset_text(path), mirror, str(path), legacy=False)
 
 
-def parse_muscle_specs(text: str, mirror: np.ndarray, path: str = "muscles.json"
+def parse_muscle_specs(text: str, mirror: np.ndarray, path: str = "muscles.json", legacy: bool = True
                        ) -> tuple[list[MuscleSpec], list[ConnectionSpec]]:
-    """Muscles and connections from the JSON text of a muscle layout (see :func:`load_muscle_specs`)."""
-    try:
-        doc = json.loads(text)
-    except ValueError as exc:
-        raise UserError(f"{path}: cannot read the muscle layout ({exc}); restore the preset") from None
+    """Muscles and connections from the JSON text of a muscle layout (see :func:`load_muscle_specs`);
+    ``legacy`` accepts the header-less text stored in rigs saved before presets had headers."""
+    doc = parse_preset(text, path, FORMAT.name, legacy=legacy)
     specs: list[MuscleSpec] = []
     mm = 0.001
     for entry in doc.get("muscles", []):
@@ -158,9 +153,8 @@ def parse_muscle_specs(text: str, mirror: np.ndarray, path: str = "muscles.json"
         if entry.get("mirror"):
             if not spec.name.endswith("_R"):
                 raise UserError(f"{path}: mirrored muscle {spec.name!r} must be named *_R")
-            twin = MuscleSpec(**{**spec.__dict__, "name": spec.name[:-2] + "_L",
-                                 "grid": [[p.mirrored(mirror) for p in row] for row in grid],
-                                 "centre": spec.centre.mirrored(mirror) if spec.centre else None})
+            twin = replace(spec, name=spec.name[:-2] + "_L", grid=[[p.mirrored(mirror) for p in row] for row in grid],
+                           centre=spec.centre.mirrored(mirror) if spec.centre else None)
             specs.append(twin)
     by_name = {s.name: s for s in specs}
     connections = []

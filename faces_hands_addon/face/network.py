@@ -32,10 +32,11 @@ from dataclasses import asdict, dataclass, fields
 
 import numpy as np
 
-from ..errors import UserError
+from ..core.errors import UserError
 from ..physics import (Attachments, BoneHalfSpaceGuard, LeapfrogIntegrator, SphereGuard, SpringNetwork,
                        SpringSet)
-from . import geometry
+from ..core import geometry
+from .attachment import BoneSurface
 from .template import HeadTemplate
 
 __all__ = ["SkinMaterial", "MATERIAL_RANGES", "FaceNetwork", "build_network"]
@@ -93,22 +94,20 @@ class FaceNetwork:
             guard(positions, velocity, fraction)
 
 
-def build_network(template: HeadTemplate, material: SkinMaterial | None = None,
-                  mass_cap_factor: float = 1.0, max_substeps: int = 64) -> FaceNetwork:
-    """Springs, attachments, masses, damping and guards for ``template`` (module docstring)."""
-    material = (material or SkinMaterial()).clamped()
-    skin = template.skin
+def _lid_weight(template: HeadTemplate) -> np.ndarray:
+    lid_weight = np.zeros(template.node_count)
+    for lid in template.organs.lids.values():
+        lid_weight = np.maximum(lid_weight, lid.weight)
+    return lid_weight
+
+
+def _skin_springs(template: HeadTemplate, material: SkinMaterial, lid_weight: np.ndarray):
+    """Biphasic springs on the skin edges (3.1.2), soft (no stiff branch) on lids, lips and mouth lining."""
+    skin, k = template.skin, SKIN_EDGE_STIFFNESS
     nodes = skin.vertices
-    n = len(nodes)
-    k = SKIN_EDGE_STIFFNESS
-    spread = material.spread_mm / 1000.0
-    omega = 2 * np.pi * material.response_hz
     edges = geometry.unique_edges(skin.faces)
     rest = np.linalg.norm(nodes[edges[:, 1]] - nodes[edges[:, 0]], axis=1)
-    lid_weight = np.zeros(n)
-    for lid in template.lids.values():
-        lid_weight = np.maximum(lid_weight, lid.weight)
-    lips = template.lip_distance < 0.009              # the red of the lips stretches far (mouthClose, "oo")
+    lips = skin.lip_distance < 0.009              # the red of the lips stretches far (mouthClose, "oo")
     soft_region = (lid_weight > 0) | skin.group("mouth_bag") | skin.group("lip_inner") | lips
     edge_soft = soft_region[edges[:, 0]] & soft_region[edges[:, 1]]
     lid_edge = (lid_weight[edges[:, 0]] > 0) & (lid_weight[edges[:, 1]] > 0)
@@ -116,27 +115,37 @@ def build_network(template: HeadTemplate, material: SkinMaterial | None = None,
     k_stiff = np.where(edge_soft, k_soft, k * material.stiff_ratio)
     springs = SpringSet(edges[:, 0], edges[:, 1], rest, k_soft, k_stiff, material.strain_threshold,
                         COMPRESSION_SOFTNESS * k_soft)
+    return springs, edges, k_stiff
 
-    # attachment pair per node: 2 * c_i = k * A_i / spread^2, firmer where targets must be met
-    area = np.maximum(template.areas, 1e-12)
+
+def _attachment_pairs(template: HeadTemplate, material: SkinMaterial, lid_weight: np.ndarray):
+    """The attachment pair of every node (Fig. 3.4): pair stiffness ``2 c_i = k A_i / spread^2``, firmer where
+    targets must be met, anchored at the mirrored offsets of :mod:`.attachment`."""
+    skin = template.skin
+    nodes = skin.vertices
+    n = len(nodes)
+    spread = material.spread_mm / 1000.0
+    area = np.maximum(skin.areas, 1e-12)
     gain = np.ones(n)
     gain[lid_weight > 0.0] = 1.0 + 11.0 * lid_weight[lid_weight > 0.0]
     gain[skin.group("lip_inner") | skin.group("upper_lip") | skin.group("lower_lip")] = 2.0
     gain[skin.group("mouth_bag")] = 3.0
     gain[skin.group("boundary")] = 3.0
-    gain[(template.lip_distance < 0.004) & ~skin.group("mouth_bag")] = 4.0
+    gain[(skin.lip_distance < 0.004) & ~skin.group("mouth_bag")] = 4.0
     for name in ("lips_inner_upper", "lips_inner_lower"):
         gain[skin.contours[name]] = 20.0                   # lip margins must reach their targets to meet
-    pair = k * area / spread ** 2 * gain
-    attach = pair / 2.0
-    offset = template.bone_point - nodes
-    depth = np.linalg.norm(offset, axis=1)
-    # nodes with no bone underneath (lids, bag) still get a short inward offset for the mirror pair
-    inward = -template.normals * 0.004
-    offset = np.where((depth > 1e-4)[:, None] & (template.bone_depth > 0)[:, None], offset, inward)
-    attachments = Attachments(np.arange(n), attach, 0.0, (nodes + offset).T, (nodes - offset).T)
+    pair = SKIN_EDGE_STIFFNESS * area / spread ** 2 * gain
+    offset = template.attachment.anchor_offsets(nodes, skin.normals)
+    attachments = Attachments(np.arange(n), pair / 2.0, 0.0, (nodes + offset).T, (nodes - offset).T)
+    return pair, attachments, offset
 
-    # masses: omega^2 = pair / m for the attachment mode; mass scaling caps each node's own limit
+
+def _masses(pair: np.ndarray, edges: np.ndarray, k_stiff: np.ndarray, material: SkinMaterial,
+            mass_cap_factor: float) -> tuple[np.ndarray, np.ndarray]:
+    """Node masses from ``omega^2 = pair / m`` for the attachment mode, mass scaling capping each node's own
+    stability limit (module docstring), and the damping of the chosen damping ratio."""
+    n = len(pair)
+    omega = 2 * np.pi * material.response_hz
     natural = pair / omega ** 2
     row = np.zeros(n)
     row += np.bincount(edges[:, 0], 2 * k_stiff, n) + np.bincount(edges[:, 1], 2 * k_stiff, n)
@@ -144,50 +153,75 @@ def build_network(template: HeadTemplate, material: SkinMaterial | None = None,
     limit = row / natural
     cap = mass_cap_factor * float(np.median(limit))
     masses = np.maximum(natural, row / cap)
-    damping = material.damping_ratio * 2.0 * np.sqrt(pair * masses)
-    network = SpringNetwork(nodes, masses, springs, attachments, kinematic=template.kinematic)
-    integrator = LeapfrogIntegrator(network, damping, max_substeps=max_substeps)
+    return masses, material.damping_ratio * 2.0 * np.sqrt(pair * masses)
 
-    # the guard's planes: each node's rest height over its bone's tangent plane sets its clearance
-    plane_height = np.einsum("ij,ij->i", nodes - template.bone_point, template.bone_normal)
+
+def _bone_guard(template: HeadTemplate, lid_weight: np.ndarray) -> BoneHalfSpaceGuard:
+    """Skin outside the mouth stays outside skull and jaw; each node's rest height over its bone's tangent
+    plane sets its clearance."""
+    skin, anchoring = template.skin, template.attachment
+    nodes = skin.vertices
+    plane_height = np.einsum("ij,ij->i", nodes - anchoring.bone_point, anchoring.bone_normal)
     guarded = skin.group("surface") & (lid_weight == 0) & (plane_height > 0.0015)
-    guarded &= ~skin.group("lip_inner") & ~skin.group("mouth_bag") & ~template.mouth_region
+    guarded &= ~skin.group("lip_inner") & ~skin.group("mouth_bag") & ~skin.mouth_region
     index = np.flatnonzero(guarded)
     clearance = np.minimum(0.0015, 0.5 * plane_height[index])
-    bone_guard = BoneHalfSpaceGuard(index, template.bone_point[index].T, template.bone_normal[index].T,
-                                    template.node_bone[index], clearance)
+    guard = BoneHalfSpaceGuard(index, anchoring.bone_point[index].T, anchoring.bone_normal[index].T,
+                               anchoring.node_bone[index], clearance)
     bones = template.bones
-    meshes = [(bones.skull_vertices, bones.skull_faces), (bones.jaw_vertices, bones.jaw_faces)]
-    bone_normals = [geometry.vertex_normals(v, f) for v, f in meshes]
+    surfaces = [BoneSurface(bones.skull_vertices, bones.skull_faces), BoneSurface(bones.jaw_vertices, bones.jaw_faces)]
 
     def exact(bone: int, points: np.ndarray):
-        verts, faces = meshes[bone]
-        point, face, bary, _ = geometry.closest_points(verts, faces, points)
-        normal = np.einsum("ij,ijk->ik", bary, bone_normals[bone][faces[face]])
-        return point, normal / np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-12)
+        return surfaces[bone].closest(points)[:2]
 
-    bone_guard.attach_bone_surfaces([(meshes[0][0], bone_normals[0]), (meshes[1][0], bone_normals[1])],
-                                    exact=exact, rest=nodes[index].T, facing=template.normals[index].T)
-    # lips and the skin around the mouth stay in front of the (rendered) teeth instead of the skull's
-    upper_points, upper_normals = template.arches["upper"]
-    lower_points, lower_normals = template.arches["lower"]
-    lips = template.mouth_region & (skin.group("surface") | skin.group("lip_inner"))
+    guard.attach_bone_surfaces([(s.vertices, s.normals) for s in surfaces], exact=exact, rest=nodes[index].T,
+                               facing=skin.normals[index].T)
+    return guard
+
+
+def _teeth_guard(template: HeadTemplate) -> BoneHalfSpaceGuard:
+    """Lips and the skin around the mouth stay in front of the (rendered) teeth instead of the skull's."""
+    skin = template.skin
+    nodes = skin.vertices
+    upper_points, upper_normals = template.organs.arches["upper"]
+    lower_points, lower_normals = template.organs.arches["lower"]
+    lips = skin.mouth_region & (skin.group("surface") | skin.group("lip_inner"))
     lip_index = np.flatnonzero(lips)
     far_behind = nodes[lip_index].T + np.array([[0.0], [1.0], [0.0]])   # inactive until a tooth is near
-    teeth_guard = BoneHalfSpaceGuard(lip_index, far_behind, np.tile([[0.0], [-1.0], [0.0]], len(lip_index)),
-                                     np.zeros(len(lip_index), np.int64), 0.0015)
-    teeth_guard.attach_bone_surfaces([(upper_points, upper_normals), (lower_points, lower_normals)], reach=0.012,
-                                     facing=template.normals[lip_index].T, rest=nodes[lip_index].T)
-    teeth_guard.set_bone_transforms([np.eye(4), np.eye(4)])
-    teeth_guard.refresh(nodes.T, everything=True)
-    teeth_guard.snapshot()
-    height = np.einsum("ij,ij->j", nodes[lip_index].T - teeth_guard.point, teeth_guard.normal)
-    teeth_guard.clearance = np.clip(0.8 * height, 0.0, 0.0015)       # never pushes a node at rest
-    teeth_guard.clearance[height <= 0] = -1.0                          # a node behind the arch: off
-    eye_guards = []
-    for side, lid in template.lids.items():
+    guard = BoneHalfSpaceGuard(lip_index, far_behind, np.tile([[0.0], [-1.0], [0.0]], len(lip_index)),
+                               np.zeros(len(lip_index), np.int64), 0.0015)
+    guard.attach_bone_surfaces([(upper_points, upper_normals), (lower_points, lower_normals)], reach=0.012,
+                               facing=skin.normals[lip_index].T, rest=nodes[lip_index].T)
+    guard.set_bone_transforms([np.eye(4), np.eye(4)])
+    guard.refresh(nodes.T, everything=True)
+    guard.snapshot()
+    height = np.einsum("ij,ij->j", nodes[lip_index].T - guard.point, guard.normal)
+    guard.clearance = np.clip(0.8 * height, 0.0, 0.0015)       # never pushes a node at rest
+    guard.clearance[height <= 0] = -1.0                          # a node behind the arch: off
+    return guard
+
+
+def _eye_guards(template: HeadTemplate) -> list[SphereGuard]:
+    """Lids stay off the eyeballs."""
+    skin, organs = template.skin, template.organs
+    guards = []
+    for side, lid in organs.lids.items():
         idx = lid.index[skin.group("surface")[lid.index]]
-        radius = template.eye_radius + 0.0003
-        idx = idx[np.linalg.norm(nodes[idx] - template.eye_centres[side], axis=1) >= radius]
-        eye_guards.append(SphereGuard(idx, template.eye_centres[side], radius))
-    return FaceNetwork(network, integrator, bone_guard, teeth_guard, eye_guards, offset, material)
+        radius = organs.eye_radius + 0.0003
+        idx = idx[np.linalg.norm(skin.vertices[idx] - organs.eye_centres[side], axis=1) >= radius]
+        guards.append(SphereGuard(idx, organs.eye_centres[side], radius))
+    return guards
+
+
+def build_network(template: HeadTemplate, material: SkinMaterial | None = None,
+                  mass_cap_factor: float = 1.0, max_substeps: int = 64) -> FaceNetwork:
+    """Springs, attachments, masses, damping and guards for ``template`` (module docstring)."""
+    material = (material or SkinMaterial()).clamped()
+    lid_weight = _lid_weight(template)
+    springs, edges, k_stiff = _skin_springs(template, material, lid_weight)
+    pair, attachments, offset = _attachment_pairs(template, material, lid_weight)
+    masses, damping = _masses(pair, edges, k_stiff, material, mass_cap_factor)
+    network = SpringNetwork(template.skin.vertices, masses, springs, attachments, kinematic=template.skin.kinematic)
+    integrator = LeapfrogIntegrator(network, damping, max_substeps=max_substeps)
+    return FaceNetwork(network, integrator, _bone_guard(template, lid_weight), _teeth_guard(template),
+                       _eye_guards(template), offset, material)

@@ -1,12 +1,12 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""``FaceRig``: the animatable MEDUSA head (thesis 3.1.2) the operators drive.
+"""``FaceRig``: the animatable MEDUSA head (thesis 3.1.2), a :class:`..core.rig.Rig`.
 
 Per frame (3.1.2 "Muscle Deformation" then "Mass Spring Network"): the controls give the jaw pose, gaze and
 lid rotation; the muscles deform (contraction, jaw, connections, stretch, bulge); every skin node's
-attachment point is carried by its bone (jaw weight), its lid and the muscles whose zone it lies in; then
-the spring network runs the guard's substeps, with the skull guard after each one. Outputs are plain arrays
-for ``foreach_set``: skin positions (N, 3) float32, 4x4 matrices for jaw, eyes, teeth and tongue, muscle
-fibre polylines with their contraction, and wrinkle strengths.
+attachment target is carried by its bone, its lid and the muscles it is attached to (:mod:`.attachment`,
+Fig. 3.4); then the spring network runs the guard's substeps, with the skull guard after each one. Outputs
+are plain arrays: skin positions (N, 3) float32, 4x4 matrices for jaw, eyes, teeth and tongue, muscle fibre
+polylines with their contraction, and wrinkle strengths.
 
 Coordinates: the rig simulates in *head space* (metres, Z up, face along -Y, human scale). Every output
 (positions, rest positions, part and bone meshes, rigid transforms, muscle fibres) is in the coordinates of
@@ -18,23 +18,27 @@ Deterministic: the same template, material, control values and frame times give 
 """
 from __future__ import annotations
 
-import json
-from dataclasses import dataclass
+from dataclasses import replace
 from functools import lru_cache
 from pathlib import Path
+from typing import Mapping
 
 import numpy as np
 
-from ..errors import UserError
-from . import kinematics
-from .controls import ControlSpec, clamp_controls, control_specs
+from ..anim.layers import mix, weighted_sum
+from ..core.controls import ControlSpec, clamp_controls
+from ..core.errors import UserError
+from ..core.rig import Pose, write_rig_archive
+from . import FACE_RIG_FORMAT, kinematics
+from .controls import control_specs
 from .network import FaceNetwork, SkinMaterial, build_network
-from .template import HeadTemplate, TemplateInputs, build_template, default_inputs
+from .persistence import read_saved_rig, restore_state, saved_state
+from .template import HeadTemplate, build_template, default_inputs
 
-__all__ = ["FaceRig", "build_default_rig", "WRINKLE_DRIVERS"]
+__all__ = ["FaceRig", "build_default_rig", "WRINKLE_DRIVERS", "RESOLUTIONS"]
 
-FORMAT = "faces_hands.face_rig/1"
 GUARD_EVERY = 4          # the skull/eye guard runs after every 4th substep and after the last one
+RESOLUTIONS = ("default", "10k", "coarse")
 
 #: 3.1.2 "Expressive Wrinkles": region -> (muscle, weight); strength = clamp(sum of weight * contraction)
 WRINKLE_DRIVERS = {
@@ -45,9 +49,13 @@ WRINKLE_DRIVERS = {
                     ("levator_labii_alaeque_nasi_R", 0.25)),
 }
 
+LayerValues = Mapping[str, Mapping[str, float]]
+
 
 class FaceRig:
     """A head template + its spring network + the current control values and simulation state."""
+
+    kind = "face"
 
     def __init__(self, template: HeadTemplate, material: SkinMaterial | None = None) -> None:
         self.template = template
@@ -56,13 +64,12 @@ class FaceRig:
         self.specs: dict[str, ControlSpec] = control_specs(template.muscles.names)
         self.controls: dict[str, float] = {name: spec.default for name, spec in self.specs.items()}
         self._rest = template.skin.vertices.copy()
-        self._muscle_index = {name: i for i, name in enumerate(template.muscles.names)}
-        self._muscle_matrix = (template.attachment_matrix if template.attachment_matrix is not None
-                               else _attachment_matrix(template))
         #: 4x4 similarity from the rig's head space to the skin mesh's coordinates (see the module docstring)
         self.head_to_mesh = np.eye(4)
         self.warnings: list[str] = []      # problems that leave the rig usable (fitted heads: no mouth opening)
-        self._driven = template.kinematic is not None and bool(np.any(template.kinematic))
+        self.identity = ""                 # set by the rig store (core.rig.save_rig / load_rig_bytes)
+        kinematic = template.skin.kinematic
+        self._driven = kinematic is not None and bool(np.any(kinematic))
         self._cache_key = None
         self._targets = None
         self.time = 0.0
@@ -70,12 +77,12 @@ class FaceRig:
 
     # -- controls --------------------------------------------------------------------------------
     def control_specs(self) -> dict[str, ControlSpec]:
-        """Name -> :class:`ControlSpec` (range, default, UI region) of every control."""
+        """Name -> :class:`ControlSpec` (range, default, UI group) of every control."""
         return dict(self.specs)
 
-    def set_controls(self, values: dict[str, float], strict: bool = True) -> None:
+    def set_controls(self, values: Mapping[str, float], strict: bool = True) -> None:
         """Set some controls (clamped to their ranges); unknown names raise unless ``strict=False``."""
-        self.controls.update(clamp_controls(dict(values), self.specs, strict))
+        self.controls.update(clamp_controls(dict(values), self.specs, strict, what="face control"))
 
     def reset_controls(self) -> None:
         self.controls = {name: spec.default for name, spec in self.specs.items()}
@@ -92,6 +99,32 @@ class FaceRig:
         face.teeth_guard.reset()
         self._cache_key = None
         self.time = 0.0
+
+    # -- the rig protocol (core.rig.Rig) ----------------------------------------------------------
+    def reset(self) -> None:
+        """Controls at their defaults, skin at rest."""
+        self.reset_controls()
+        self.reset_state()
+
+    def pose(self) -> Pose:
+        """The current pose: skin positions and the rigid parts' transforms (copies)."""
+        return Pose({"skin": np.array(self.positions, dtype=np.float32, copy=True)}, self.rigid_transforms())
+
+    def rest_pose(self) -> Pose:
+        return Pose({"skin": self.rest_positions}, {name: np.eye(4) for name in self.rigid_transforms()})
+
+    def step(self, layer_values: LayerValues, dt: float) -> Pose:
+        """Mix the control layers (thesis 4.3.5), advance one frame of ``dt`` seconds, return the pose."""
+        self.set_controls(mix(layer_values, self.specs))
+        self.step_frame(dt)
+        return self.pose()
+
+    def settled(self, layer_values: LayerValues, max_time: float = 1.5, dt: float = 1 / 24) -> Pose:
+        """The pose the face settles into from rest with the mixed ``layer_values``."""
+        self.reset()
+        self.set_controls(mix(layer_values, self.specs))
+        self.settle(max_time=max_time, dt=dt)
+        return self.pose()
 
     # -- geometry handed to Blender ---------------------------------------------------------------
     @property
@@ -112,7 +145,7 @@ class FaceRig:
 
     def part_meshes(self) -> dict:
         """Rest meshes of eyes, teeth and tongue (``organs.PartMesh``: vertices, faces, face_material)."""
-        return dict(self.template.parts)
+        return dict(self.template.organs.parts)
 
     def bone_meshes(self) -> dict[str, tuple[np.ndarray, np.ndarray]]:
         """Fitted skull and jaw (vertices, faces) in rest pose."""
@@ -120,19 +153,20 @@ class FaceRig:
         return {"skull": (b.skull_vertices, b.skull_faces), "jaw": (b.jaw_vertices, b.jaw_faces)}
 
     # -- per frame -------------------------------------------------------------------------------
-    def _jaw(self) -> np.ndarray:
+    def jaw_transform(self) -> np.ndarray:
+        """The jaw's 4x4 pose (head space) for the current controls (3.1.1: four degrees of freedom)."""
         c, b = self.controls, self.template.bones
         return kinematics.jaw_matrix(b.tmj_pivot, b.tmj_axis, c["jaw_open"], c["jaw_yaw"], c["jaw_forward"],
-                                     c["jaw_drop"], glide=self.template.jaw_glide)
+                                     c["jaw_drop"], glide=b.jaw_glide)
 
     def rigid_transforms(self) -> dict[str, np.ndarray]:
         """4x4 matrices (head coordinates, applied to the rest meshes) for the current controls."""
-        c, t = self.controls, self.template
-        jaw = self._jaw()
+        c, organs = self.controls, self.template.organs
+        jaw = self.jaw_transform()
         out = {"jaw": jaw, "teeth_upper": np.eye(4), "teeth_lower": jaw, "skull": np.eye(4)}
-        for side, centre in t.eye_centres.items():
+        for side, centre in organs.eye_centres.items():
             out[f"eye_{side}"] = kinematics.eye_matrix(centre, c["eye_yaw"], c["eye_pitch"])
-        out["tongue"] = kinematics.tongue_matrix(jaw, t.tongue_pivot, c["tongue_tip_up"], c["tongue_back"],
+        out["tongue"] = kinematics.tongue_matrix(jaw, organs.tongue_pivot, c["tongue_tip_up"], c["tongue_back"],
                                                  c["tongue_out"])
         return out
 
@@ -146,30 +180,24 @@ class FaceRig:
         if key == self._cache_key:
             return self._targets
         t, rest = self.template, self._rest
-        jaw = self._jaw()
-        carried = rest @ jaw[:3, :3].T + jaw[:3, 3]
-        target = rest + t.jaw_weight[:, None] * (carried - rest)
-        for side, lid in t.lids.items():
+        jaw = self.jaw_transform()
+        target = t.attachment.carried(rest, jaw)
+        for side, lid in t.organs.lids.items():
             rotated = lid.rotate(rest, self.controls[f"eyelid_close_{side}"], self.controls["eye_pitch"])
             target[lid.index] += rotated[lid.index] - rest[lid.index]
         state = t.muscles.deform(self._contraction_vector(), self.controls["orbicularis_oris_protrusion"], jaw)
         self._muscle_state = state
-        muscle = self._muscle_matrix @ state.displacement          # sum of weight * closest muscle point
-        for _ in range(t.smoothing_passes):          # the skin layer spreads the muscles' pull smoothly
-            muscle = t.smoothing @ muscle
-        target += muscle
+        target += t.attachment.muscle_displacement(state.displacement)
         self._cache_key, self._targets = key, target
         self._jaw_now = jaw
         return target
 
-    def step_frame(self, dt: float = 1 / 24) -> np.ndarray:
-        """Advance the simulation by one frame of ``dt`` seconds; returns positions (N, 3) float32."""
+    def _advance(self, dt: float) -> None:
+        """Simulate one frame of ``dt`` seconds (guards slide with the jaw during the frame)."""
         target = self.attachment_targets()
         face = self.face
         jaw = self._jaw_now
-        offset = face.anchor_offset.copy()
-        on_jaw = self.template.jaw_weight > 0.5
-        offset[on_jaw] = offset[on_jaw] @ jaw[:3, :3].T
+        offset = self.template.attachment.posed_offsets(face.anchor_offset, jaw)
         for guard in (face.bone_guard, face.teeth_guard):
             guard.begin_frame()                        # planes slide with the jaw during the frame
             guard.set_bone_transforms([np.eye(4), jaw])
@@ -178,6 +206,10 @@ class FaceRig:
                                                       driven=target.T if self._driven else None,
                                                       constraint=face.constrain, constraint_every=GUARD_EVERY)
         self.time += dt
+
+    def step_frame(self, dt: float = 1 / 24) -> np.ndarray:
+        """Advance the simulation by one frame of ``dt`` seconds; returns positions (N, 3) float32."""
+        self._advance(dt)
         return self.positions
 
     def settle(self, max_time: float = 1.5, dt: float = 1 / 24, tolerance: float = 2e-4) -> np.ndarray:
@@ -204,133 +236,48 @@ class FaceRig:
                 for name, line in self.template.muscles.fibres(points)]
 
     def wrinkles(self) -> dict[str, float]:
-        """Expressive-wrinkle strengths per region in [0, 1] (3.1.2 "Expressive Wrinkles")."""
-        return {region: float(np.clip(sum(w * self.controls.get(m, 0.0) for m, w in drivers), 0.0, 1.0))
-                for region, drivers in WRINKLE_DRIVERS.items()}
+        """Expressive-wrinkle strengths per region in [0, 1] (3.1.2 "Expressive Wrinkles"), by the same
+        rule the wrinkle drivers use (:func:`..anim.layers.weighted_sum`)."""
+        return {region: weighted_sum(drivers, self.controls) for region, drivers in WRINKLE_DRIVERS.items()}
 
     def wrinkle_masks(self) -> dict[str, np.ndarray]:
         """Per-node weights (N,) float32 of each wrinkle region, e.g. for a colour attribute."""
-        return {k: v.astype(np.float32) for k, v in self.template.wrinkle_regions.items()}
+        return {k: v.astype(np.float32) for k, v in self.template.skin.wrinkle_regions.items()}
 
     # -- persistence -----------------------------------------------------------------------------
-    def _saved_state(self, inputs: TemplateInputs | None = None) -> tuple[dict, dict[str, np.ndarray]]:
-        """Metadata and arrays every saved rig holds: the build ``inputs`` (default: the template's),
-        material, controls, simulation and guard state (shared by :meth:`save` and ``FittedFaceRig.save``)."""
-        inputs = self.template.inputs if inputs is None else inputs
-        meta = {"material": self.material.to_dict(), "controls": self.controls, "time": self.time,
-                "started": self.face.integrator.started, "contours": sorted(inputs.contours),
-                "landmarks_json": inputs.landmarks_json, "muscles_json": inputs.muscles_json}
-        arrays = {"canonical_vertices": inputs.canonical_vertices, "canonical_faces": inputs.canonical_faces,
-                  "skull_vertices": inputs.skull_vertices, "skull_faces": inputs.skull_faces,
-                  "jaw_vertices": inputs.jaw_vertices, "jaw_faces": inputs.jaw_faces,
-                  "positions": self.face.network.positions, "velocity": self.face.integrator.velocity,
-                  "anchor": self.face.network.attachments.anchor, "mirror": self.face.network.attachments.mirror,
-                  "mass_scale": np.array([self.face.integrator.mass_scale])}
-        for name, line in inputs.contours.items():
-            arrays[f"contour__{name}"] = np.asarray(line)
-        for guard_name in GUARDS:
-            for key, value in getattr(self.face, guard_name).state().items():
-                arrays[f"{guard_name}__{key}"] = value
-        return meta, arrays
-
-    @staticmethod
-    def _write(path: str | Path, meta: dict, arrays: dict[str, np.ndarray]) -> None:
-        meta_json = np.frombuffer(json.dumps(meta, sort_keys=True).encode("utf-8"), np.uint8)
-        with open(Path(path), "wb") as handle:
-            np.savez_compressed(handle, meta_json=meta_json, **arrays)
-
     def save(self, path: str | Path) -> None:
-        """Write the rig to ``path`` (.npz, ``allow_pickle=False`` safe): build inputs, material, controls
-        and simulation state. :meth:`load` rebuilds the template from the inputs (deterministic)."""
-        meta, arrays = self._saved_state()
-        meta.update(format=FORMAT, resolution=self.template.resolution)
-        self._write(path, meta, arrays)
-
-    def _restore_state(self, saved: "SavedRig") -> None:
-        """Put back controls, simulation and guard state read by :func:`read_saved_rig`."""
-        self.set_controls(saved.meta["controls"], strict=False)
-        network, integrator = self.face.network, self.face.integrator
-        network.positions[...] = saved.arrays["positions"]
-        integrator.velocity[...] = saved.arrays["velocity"]
-        network.set_attachment_targets(saved.arrays["anchor"], saved.arrays["mirror"])
-        integrator.mass_scale = float(saved.arrays["mass_scale"][0])
-        jaw = self._jaw()
-        for name, state in saved.guards.items():
-            guard = getattr(self.face, name)
-            guard.set_bone_transforms([np.eye(4), jaw])
-            guard.set_state(state)
-        integrator.started = bool(saved.meta["started"])
-        self.time = float(saved.meta["time"])
+        """Write the rig to ``path`` (.npz, no pickles): build inputs, material, controls and simulation
+        state. :meth:`load` rebuilds the template from the inputs (deterministic)."""
+        meta, arrays = saved_state(self, self.template.inputs)
+        meta.update(format=FACE_RIG_FORMAT, resolution=self.template.resolution)
+        write_rig_archive(path, meta, arrays)
 
     @classmethod
     def load(cls, path: str | Path) -> "FaceRig":
-        """Read a rig written by :meth:`save` (never unpickles anything); a rig fitted to an artist's mesh
-        (:meth:`.fitted.FittedFaceRig.save`) comes back as a :class:`.fitted.FittedFaceRig`."""
-        from . import fitted
-        if fitted.is_fitted_rig_file(path):
-            return fitted.FittedFaceRig.load(path)
-        saved = read_saved_rig(path, FORMAT, "face rig")
+        """Read a rig written by :meth:`save` (never unpickles anything). Rigs of any kind load through
+        :func:`..core.rig.load_rig`."""
+        saved = read_saved_rig(path, FACE_RIG_FORMAT, "face rig")
+        if saved.meta.get("resolution") not in RESOLUTIONS:
+            raise UserError(f"{path}: unknown face resolution {saved.meta.get('resolution')!r}")
         rig = cls(build_template(saved.meta["resolution"], saved.inputs), SkinMaterial(**saved.meta["material"]))
         if saved.arrays["positions"].shape != rig.face.network.positions.shape:
             raise UserError(f"{path}: the saved state does not match the rebuilt rig; rebuild the rig")
-        rig._restore_state(saved)
+        restore_state(rig, saved)
         return rig
 
 
-GUARDS = ("bone_guard", "teeth_guard")
-STATE_ARRAYS = ("positions", "velocity", "anchor", "mirror", "mass_scale")
-
-
-@dataclass
-class SavedRig:
-    """What :func:`read_saved_rig` read from a saved rig: metadata, template inputs, state and guard arrays
-    (``arrays`` also holds any ``extra`` arrays the caller asked for)."""
-    meta: dict
-    inputs: TemplateInputs
-    arrays: dict[str, np.ndarray]
-    guards: dict[str, dict[str, np.ndarray]]
-
-
-def read_saved_rig(path: str | Path, expected_format: str, what: str, extra: tuple[str, ...] = ()) -> SavedRig:
-    """Read a rig ``.npz`` (never unpickles anything), checking its format; bad files raise UserError."""
-    try:
-        with np.load(Path(path), allow_pickle=False) as data:
-            meta = json.loads(bytes(data["meta_json"]).decode("utf-8"))
-            if meta.get("format") != expected_format:
-                raise UserError(f"{path}: not a Faces & Hands {what} (format {meta.get('format')!r})")
-            contours = {name: data[f"contour__{name}"] for name in meta["contours"]}
-            inputs = TemplateInputs(data["canonical_vertices"], data["canonical_faces"], contours,
-                                    data["skull_vertices"], data["skull_faces"], data["jaw_vertices"],
-                                    data["jaw_faces"], meta["landmarks_json"], meta["muscles_json"])
-            arrays = {key: data[key] for key in STATE_ARRAYS + tuple(extra)}
-            guards = {g: {k.split("__", 1)[1]: data[k] for k in data.files if k.startswith(g + "__")}
-                      for g in GUARDS}
-    except (OSError, KeyError, ValueError) as exc:
-        raise UserError(f"{path}: cannot read the {what} ({exc})") from None
-    return SavedRig(meta, inputs, arrays, guards)
-
-
-def _attachment_matrix(template: HeadTemplate):
-    """Sparse (N, P) map from muscle control-point displacements to skin attachment displacements:
-    weight x barycentric coordinate of the closest point on each attached muscle (3.1.2)."""
-    from scipy import sparse
-    n, k = template.attach_weight.shape
-    corner = template.muscles.cells[np.maximum(template.attach_cell, 0)]            # (N, K, 3)
-    data = (template.attach_weight[:, :, None] * template.attach_bary).ravel()
-    rows = np.repeat(np.arange(n), k * 3)
-    matrix = sparse.csr_matrix((data, (rows, corner.ravel())), shape=(n, len(template.muscles.rest)))
-    matrix.eliminate_zeros()
-    return matrix
-
-
 @lru_cache(maxsize=4)
-def _default_template(resolution: str) -> HeadTemplate:
-    return build_template(resolution, default_inputs())
+def _default_template(resolution: str, landmarks_json: str, muscles_json: str) -> HeadTemplate:
+    inputs = default_inputs()
+    return build_template(resolution, replace(inputs, landmarks_json=landmarks_json, muscles_json=muscles_json))
 
 
 def build_default_rig(resolution: str = "default", material: SkinMaterial | None = None) -> FaceRig:
-    """The default head (MediaPipe canonical face, myo-sim skull and jaw) at ``"default"`` (~2.6k skin
-    nodes) or ``"10k"`` (~10k) resolution. The template is built once per process and shared (read-only)."""
-    if resolution not in ("default", "10k", "coarse"):
+    """The default head (MediaPipe canonical face, myo-sim skull and jaw) at ``"default"`` (~2.9k skin
+    nodes) or ``"10k"`` (~11k) resolution. The template is built once per process for each version of the
+    face presets (an edited preset in the user folder gives a new template) and shared (read-only)."""
+    if resolution not in RESOLUTIONS:
         raise UserError(f"unknown face resolution {resolution!r}; use 'default' or '10k'")
-    return FaceRig(_default_template(resolution), material)
+    inputs = default_inputs()
+    return FaceRig(_default_template(resolution, inputs.landmarks_json, inputs.muscles_json), material)
+

@@ -2,7 +2,7 @@
 """The template skin (thesis 3.1.2 "Skin"): the MediaPipe canonical face made animatable.
 
 Stage 1 of the template build ("place landmarks"): the canonical face is one closed disc in which
-triangles cover the mouth opening and both eyes (see ../shared/notes/verified-recipes.md), so lips could
+triangles cover the mouth opening and both eyes (see presets/SOURCES.md), so lips could
 never part and lids never open. We remove those triangles, give the lips an inner surface that runs back
 into a mouth cavity ("mouth bag", closed at the throat) and give each lid margin a little thickness
 towards the eyeball, then refine: long edges are split once (the forehead triangles of the canonical mesh
@@ -18,8 +18,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import sparse
 
-from ..errors import UserError
-from . import geometry
+from ..core.errors import UserError
+from ..core import geometry, refine
 
 __all__ = ["SkinMesh", "build_skin", "eyeball_sphere", "RESOLUTIONS"]
 
@@ -96,21 +96,15 @@ def _strip(loop_a: np.ndarray, loop_b: np.ndarray, points: list, closed: bool = 
     return faces
 
 
-def build_skin(canonical_vertices: np.ndarray, canonical_faces: np.ndarray, contours: dict[str, np.ndarray],
-               resolution: str = "default") -> SkinMesh:
-    """Stage 1 of the template: the animatable skin from the canonical face (see the module docstring)."""
-    if resolution not in RESOLUTIONS:
-        raise UserError(f"unknown skin resolution {resolution!r}; use one of {sorted(RESOLUTIONS)}")
-    v = np.asarray(canonical_vertices, np.float64)
-    f = np.asarray(canonical_faces, np.int64)
+def _open_holes(v: np.ndarray, f: np.ndarray, contours: dict[str, np.ndarray]):
+    """The canonical faces without the triangles that cover the mouth and the eyes, and the boundary loops
+    this leaves (mouth, eye_L, eye_R, outer)."""
     lips_inner = np.concatenate([contours["lips_inner_upper"], contours["lips_inner_lower"][1:-1]])
-    eye = {side: contours[f"eye_{side}"] for side in ("L", "R")}
-    covered = [set(lips_inner.tolist()), set(eye["L"].tolist()), set(eye["R"].tolist())]
+    covered = [set(lips_inner.tolist()), set(contours["eye_L"].tolist()), set(contours["eye_R"].tolist())]
     keep = np.array([not any(set(face.tolist()) <= c for c in covered) for face in f])
     faces = [list(map(int, face)) for face in f[keep]]
-    loops = geometry.boundary_loops(np.array(faces))
     by_member = {}
-    for loop in loops:
+    for loop in refine.boundary_loops(np.array(faces)):
         members = set(loop.tolist())
         if 13 in members:
             by_member["mouth"] = loop
@@ -122,17 +116,26 @@ def build_skin(canonical_vertices: np.ndarray, canonical_faces: np.ndarray, cont
             by_member.setdefault("outer", loop)
     if set(by_member) != {"mouth", "eye_L", "eye_R", "outer"}:
         raise UserError("canonical face: could not find the mouth and eye holes; check the assets")
-    vertices = [p for p in v]
-    groups = [GROUPS["surface"]] * len(v)
+    return faces, by_member
+
+
+class _BaseMesh:
+    """The base mesh being grown: vertices, their group flags and the triangles."""
+
+    def __init__(self, vertices: np.ndarray, faces: list[list[int]]):
+        self.vertices = [p for p in vertices]
+        self.groups = [GROUPS["surface"]] * len(vertices)
+        self.faces = faces
+
+    def add(self, point, flag) -> int:
+        self.vertices.append(np.asarray(point, np.float64))
+        self.groups.append(flag)
+        return len(self.vertices) - 1
+
+
+def _add_mouth(mesh: _BaseMesh, v: np.ndarray, mouth: np.ndarray, contours: dict[str, np.ndarray]) -> np.ndarray:
+    """Lips: the inner surface, then the mouth bag, closed at the throat. Returns the mouth centre."""
     upper = set(contours["lips_inner_upper"].tolist())
-
-    def add(point, flag):
-        vertices.append(np.asarray(point, np.float64))
-        groups.append(flag)
-        return len(vertices) - 1
-
-    # -- lips: inner surface, then the mouth bag, closed at the throat ---------------------------
-    mouth = by_member["mouth"]
     centre = 0.5 * (v[13] + v[14])
     half_width = 0.5 * abs(v[308, 0] - v[78, 0]) + 1e-9
     is_upper = np.array([i in upper and i not in (78, 308) for i in mouth])
@@ -156,19 +159,23 @@ def build_skin(canonical_vertices: np.ndarray, canonical_faces: np.ndarray, cont
             else:
                 z = centre[2] + sign[k] * reach * (0.25 + 0.75 * profile)
             extra = GROUPS["upper_lip"] if sign[k] > 0 else GROUPS["lower_lip"] if sign[k] < 0 else 0
-            ring.append(add([x, p[1] + depth, z], flag | extra))
-        faces += _strip(previous, np.array(ring), vertices)
+            ring.append(mesh.add([x, p[1] + depth, z], flag | extra))
+        mesh.faces += _strip(previous, np.array(ring), mesh.vertices)
         previous = np.array(ring)
-    cap = add(centre + np.array([0.0, 0.064, 0.0]), GROUPS["mouth_bag"])
+    cap = mesh.add(centre + np.array([0.0, 0.064, 0.0]), GROUPS["mouth_bag"])
     for i in range(len(previous)):
         j = (i + 1) % len(previous)
-        faces.append([int(previous[j]), int(previous[i]), cap])
+        mesh.faces.append([int(previous[j]), int(previous[i]), cap])
+    return centre
 
-    # -- eyes: a lid margin with thickness towards the eyeball -----------------------------------
+
+def _add_lid_margins(mesh: _BaseMesh, v: np.ndarray, loops: dict, contours: dict[str, np.ndarray]) -> dict:
+    """Eyes: a lid margin with thickness towards the eyeball (the ring's far side stays open: the eyeball
+    fills it). Returns the eyeball centres."""
     eye_centres = {}
     for side in ("L", "R"):
-        loop = by_member[f"eye_{side}"]
-        centre_eye = eyeball_sphere(v[eye[side]])
+        loop = loops[f"eye_{side}"]
+        centre_eye = eyeball_sphere(v[contours[f"eye_{side}"]])
         eye_centres[side] = centre_eye
         ring = []
         upper_set = set(contours[f"eye_{side}_upper"].tolist())
@@ -177,38 +184,50 @@ def build_skin(canonical_vertices: np.ndarray, canonical_faces: np.ndarray, cont
             inward = centre_eye - p
             inward /= np.linalg.norm(inward)
             lid = GROUPS[f"lid_upper_{side}"] if index in upper_set else GROUPS[f"lid_lower_{side}"]
-            ring.append(add(p + inward * LID_THICKNESS, GROUPS["lid_back"] | lid))
-        faces += _strip(loop, np.array(ring), vertices, closed=True)
-        # the ring's far side stays open: the eyeball fills it
+            ring.append(mesh.add(p + inward * LID_THICKNESS, GROUPS["lid_back"] | lid))
+        mesh.faces += _strip(loop, np.array(ring), mesh.vertices, closed=True)
+    return eye_centres
 
-    base_vertices = np.array(vertices)
-    base_faces = np.array(faces, np.int64)
-    base_groups = np.array(groups, np.int64)
+
+def _refined(base_vertices: np.ndarray, base_faces: np.ndarray, base_groups: np.ndarray, resolution: str):
+    """Split long edges once, then Loop subdivision; the refinement as a sparse basis from the base mesh."""
+    max_edge, levels = RESOLUTIONS[resolution]
+    basis = sparse.identity(len(base_vertices), format="csr")
+    current_faces, current_groups = base_faces, base_groups
+    for step in range(1 + levels):
+        if step == 0:
+            matrix, current_faces = refine.split_long_edges(basis @ base_vertices, current_faces, max_edge)
+        else:
+            matrix, current_faces = refine.loop_subdivision(basis.shape[0], current_faces)
+        current_groups = _propagate_groups(matrix, current_groups)
+        basis = (matrix @ basis).tocsr()
+    basis.eliminate_zeros()
+    return basis, current_faces, current_groups
+
+
+def build_skin(canonical_vertices: np.ndarray, canonical_faces: np.ndarray, contours: dict[str, np.ndarray],
+               resolution: str = "default") -> SkinMesh:
+    """Stage 1 of the template: the animatable skin from the canonical face (see the module docstring)."""
+    if resolution not in RESOLUTIONS:
+        raise UserError(f"unknown skin resolution {resolution!r}; use one of {sorted(RESOLUTIONS)}")
+    v = np.asarray(canonical_vertices, np.float64)
+    faces, loops = _open_holes(v, np.asarray(canonical_faces, np.int64), contours)
+    mesh = _BaseMesh(v, faces)
+    centre = _add_mouth(mesh, v, loops["mouth"], contours)
+    eye_centres = _add_lid_margins(mesh, v, loops, contours)
+    base_vertices = np.array(mesh.vertices)
+    base_faces = np.array(mesh.faces, np.int64)
+    base_groups = np.array(mesh.groups, np.int64)
     for side in ("L", "R"):
         for part in ("upper", "lower"):
             ids = contours[f"eye_{side}_{part}"]
             base_groups[ids] |= GROUPS[f"lid_{part}_{side}"]
     base_groups[contours["lips_inner_upper"]] |= GROUPS["upper_lip"]
     base_groups[contours["lips_inner_lower"]] |= GROUPS["lower_lip"]
-    base_groups[by_member["outer"]] |= GROUPS["boundary"]
-
-    # -- refinement: split long edges once, then Loop subdivision --------------------------------
-    max_edge, levels = RESOLUTIONS[resolution]
-    basis = sparse.identity(len(base_vertices), format="csr")
-    current_faces = base_faces
-    current_groups = base_groups
-    for step in range(1 + levels):
-        if step == 0:
-            matrix, current_faces = geometry.split_long_edges(basis @ base_vertices, current_faces, max_edge)
-        else:
-            matrix, current_faces = geometry.loop_subdivision(basis.shape[0], current_faces)
-        current_groups = _propagate_groups(matrix, current_groups)
-        basis = (matrix @ basis).tocsr()
-    basis.eliminate_zeros()
-    nodes = basis @ base_vertices
-    skin = SkinMesh(vertices=nodes, faces=current_faces, basis=basis, base_vertices=base_vertices,
-                    base_faces=base_faces, groups=current_groups, eye_centres=eye_centres,
-                    mouth_centre=centre)
+    base_groups[loops["outer"]] |= GROUPS["boundary"]
+    basis, current_faces, current_groups = _refined(base_vertices, base_faces, base_groups, resolution)
+    skin = SkinMesh(vertices=basis @ base_vertices, faces=current_faces, basis=basis, base_vertices=base_vertices,
+                    base_faces=base_faces, groups=current_groups, eye_centres=eye_centres, mouth_centre=centre)
     skin.contours = _trace_contours(skin, contours)
     return skin
 
@@ -233,11 +252,7 @@ def _trace_contours(skin: SkinMesh, contours: dict[str, np.ndarray]) -> dict[str
     shortest mesh path between the two kept nodes (subdivision keeps canonical indices)."""
     from scipy.sparse.csgraph import dijkstra
 
-    edges = geometry.unique_edges(skin.faces)
-    length = np.linalg.norm(skin.vertices[edges[:, 1]] - skin.vertices[edges[:, 0]], axis=1)
-    n = skin.node_count
-    graph = sparse.csr_matrix((np.r_[length, length], (np.r_[edges[:, 0], edges[:, 1]],
-                                                        np.r_[edges[:, 1], edges[:, 0]])), shape=(n, n))
+    graph = geometry.edge_length_graph(skin.vertices, geometry.unique_edges(skin.faces))
     out = {}
     for name in ("lips_inner_upper", "lips_inner_lower", "lips_outer_upper", "lips_outer_lower",
                  "eye_L_upper", "eye_L_lower", "eye_R_upper", "eye_R_lower", "eyebrow_L_upper",

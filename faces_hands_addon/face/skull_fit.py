@@ -15,19 +15,22 @@ pushed back under the skin (:func:`push_behind_skin`, smoothed over the bone mes
 """
 from __future__ import annotations
 
-import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import UserError
+from ..core.errors import UserError
 from ..physics.rbf import RBFWarp
-from . import geometry
+from ..core import geometry
+from ..core.presets import NUMBER, PresetFormat, parse_preset, read_preset_text, register_format, resolve
 
-__all__ = ["Landmark", "BoneFit", "load_landmarks", "parse_landmarks", "fit_bones", "similarity_transform", "PRESETS_DIR"]
+__all__ = ["Landmark", "BoneFit", "load_landmarks", "parse_landmarks", "fit_bones", "similarity_transform", "FORMAT"]
 
-PRESETS_DIR = Path(__file__).resolve().parents[2] / "presets"
+FORMAT = register_format(PresetFormat("faces_hands.face_landmarks", 1, required=("landmarks",),
+                                     shape={"about": str, "landmarks": [{"name": str, "index": NUMBER,
+                                                                          "depth_mm": NUMBER, "bone": str}],
+                                            "skull_hints": {}}))
 
 
 @dataclass(frozen=True)
@@ -52,23 +55,21 @@ class BoneFit:
     tmj_pivot: np.ndarray          # (3,) midpoint of the two condyles
     tmj_axis: np.ndarray           # (3,) unit, from the right condyle to the left one (+X)
     condyles: np.ndarray           # (2, 3) right, left
+    jaw_glide: np.ndarray = field(default_factory=lambda: np.zeros(3))   # condylar glide at full opening
 
 
 def load_landmarks(path: Path | None = None) -> tuple[list[Landmark], dict]:
     """Landmarks and skull hints from ``presets/face/landmarks.json`` (or ``path``)."""
-    path = Path(path or PRESETS_DIR / "face" / "landmarks.json")
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise UserError(f"{path}: cannot read the landmark table ({exc}); restore the preset") from None
-    return parse_landmarks(text, str(path))
+    path = Path(path) if path else resolve("face/landmarks.json")
+    return parse_landmarks(read_preset_text(path), str(path), legacy=False)
 
 
-def parse_landmarks(text: str, where: str = "landmarks.json") -> tuple[list[Landmark], dict]:
-    """Landmarks and skull hints from the JSON text of a landmark table."""
+def parse_landmarks(text: str, where: str = "landmarks.json", legacy: bool = True) -> tuple[list[Landmark], dict]:
+    """Landmarks and skull hints from the JSON text of a landmark table (``legacy``: header-less text
+    stored in rigs saved before presets had headers is accepted)."""
     path = where
+    doc = parse_preset(text, where, FORMAT.name, legacy=legacy)
     try:
-        doc = json.loads(text)
         marks = [Landmark(str(r["name"]), int(r["index"]), float(r["depth_mm"]) / 1000.0, str(r["bone"]))
                  for r in doc["landmarks"]]
     except (OSError, ValueError, KeyError, TypeError) as exc:

@@ -39,10 +39,11 @@ from scipy import sparse
 from scipy.sparse.csgraph import connected_components, dijkstra
 from scipy.spatial import cKDTree
 
-from . import geometry
-from .template import JAW, SKULL, HeadTemplate
+from ..core import geometry
+from .attachment import JAW, SKULL
+from .template import HeadTemplate
 
-__all__ = ["MeshTransfer", "transfer_to_mesh", "mesh_edges", "FACE_DISTANCE", "ACTIVE_REACH", "JAW_REACH", "UPPER",
+__all__ = ["MeshTransfer", "transfer_to_mesh", "FACE_DISTANCE", "ACTIVE_REACH", "JAW_REACH", "UPPER",
            "LOWER", "CARRIERS"]
 
 FACE_DISTANCE = 0.005   # m: vertices this close to the template skin are face skin (full weight)
@@ -87,26 +88,6 @@ class MeshTransfer:
     warnings: list[str] = field(default_factory=list)
 
 
-def mesh_edges(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Unique undirected edges (E, 2) of a triangle list (same order as :func:`.geometry.unique_edges`)
-    and how many triangles use each; one 1-D sort, fast for large meshes."""
-    faces = np.asarray(faces, np.int64)
-    e = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
-    e.sort(axis=1)
-    base = int(e.max()) + 1 if len(e) else 1
-    keys, counts = np.unique(e[:, 0] * base + e[:, 1], return_counts=True)
-    return np.stack([keys // base, keys % base], axis=1), counts
-
-
-def edge_graph(vertices: np.ndarray, edges: np.ndarray) -> sparse.csr_matrix:
-    """Symmetric sparse graph of the mesh ``edges`` weighted by their lengths."""
-    length = np.linalg.norm(vertices[edges[:, 1]] - vertices[edges[:, 0]], axis=1)
-    length = np.maximum(length, 1e-12)               # coincident vertices are still neighbours
-    n = len(vertices)
-    return sparse.csr_matrix((np.r_[length, length], (np.r_[edges[:, 0], edges[:, 1]],
-                                                       np.r_[edges[:, 1], edges[:, 0]])), shape=(n, n))
-
-
 def _closest(template: HeadTemplate, vertices: np.ndarray, allowed: np.ndarray | None = None):
     faces = template.skin.faces
     index = np.arange(len(faces)) if allowed is None else np.flatnonzero(allowed)
@@ -139,38 +120,14 @@ def _opening(graph: sparse.csr_matrix, vertices: np.ndarray, a: int, b: int, rea
     return bool(path > OPENING_RATIO * max(straight, 1e-4))
 
 
-def transfer_to_mesh(template: HeadTemplate, vertices: np.ndarray, faces: np.ndarray,
-                     landmarks: np.ndarray) -> MeshTransfer:
-    """Closest-point transfer from ``template`` (built on ``landmarks``, head space) to the mesh
-    ``vertices``/``faces`` (head space); see the module docstring."""
-    n = len(vertices)
+def _closest_by_side(template: HeadTemplate, vertices: np.ndarray, side: np.ndarray):
+    """Closest points on the template skin: everything first, then per side of the mouth (a vertex of the
+    upper lip must not take over the lower lip's data, and the other way round) and, for vertices off the
+    face, on the visible surface only (the face's rim, not the mouth bag)."""
     skin = template.skin
     t_faces = skin.faces
-    contours = template.inputs.contours
-    used = np.zeros(n, bool)
-    used[faces.ravel()] = True
-    edges, counts = mesh_edges(faces)
-    graph = edge_graph(vertices, edges)
-    used_index = np.flatnonzero(used)
-    tree = cKDTree(vertices[used_index])
-
-    def nearest_vertex(points: np.ndarray) -> np.ndarray:
-        return used_index[tree.query(points)[1]]
-
-    # -- the side of the mouth, over the artist's skin --------------------------------------------------
-    upper_seeds = np.unique(nearest_vertex(landmarks[contours["lips_outer_upper"][2:-2]]))
-    lower_seeds = np.unique(nearest_vertex(landmarks[contours["lips_outer_lower"][2:-2]]))
-    shared = np.intersect1d(upper_seeds, lower_seeds)
-    upper_seeds = np.setdiff1d(upper_seeds, shared)
-    lower_seeds = np.setdiff1d(lower_seeds, shared)
-    d_up, d_low = (dijkstra(graph, indices=seeds, min_only=True, limit=2 * MOUTH_REACH) if len(seeds)
-                   else np.full(n, np.inf) for seeds in (upper_seeds, lower_seeds))
-    near_mouth = np.minimum(d_up, d_low) < MOUTH_REACH
-    side = np.where(near_mouth, np.where(d_low < d_up, LOWER, UPPER), NONE).astype(np.int8)
-
-    # -- closest points: everything first, then per side of the mouth and for vertices off the face -------
-    bone = template.node_bone[t_faces]
-    in_mouth = template.mouth_region[t_faces].any(axis=1)
+    bone = template.attachment.node_bone[t_faces]
+    in_mouth = skin.mouth_region[t_faces].any(axis=1)
     upper_only = in_mouth & (bone == SKULL).all(axis=1)
     lower_only = in_mouth & (bone == JAW).all(axis=1)
     surface_tri = skin.group("surface")[t_faces].all(axis=1)
@@ -191,6 +148,39 @@ def transfer_to_mesh(template: HeadTemplate, vertices: np.ndarray, faces: np.nda
             allowed &= surface_tri
         select = np.flatnonzero(klass == value)
         tri[select], bary[select], dist[select] = _closest(template, vertices[select], allowed)
+    return tri, bary, dist
+
+
+def transfer_to_mesh(template: HeadTemplate, vertices: np.ndarray, faces: np.ndarray,
+                     landmarks: np.ndarray) -> MeshTransfer:
+    """Closest-point transfer from ``template`` (built on ``landmarks``, head space) to the mesh
+    ``vertices``/``faces`` (head space); see the module docstring."""
+    n = len(vertices)
+    skin = template.skin
+    t_faces = skin.faces
+    contours = template.inputs.contours
+    used = np.zeros(n, bool)
+    used[faces.ravel()] = True
+    edges, counts = geometry.unique_edges(faces, return_counts=True)
+    graph = geometry.edge_length_graph(vertices, edges)
+    used_index = np.flatnonzero(used)
+    tree = cKDTree(vertices[used_index])
+
+    def nearest_vertex(points: np.ndarray) -> np.ndarray:
+        return used_index[tree.query(points)[1]]
+
+    # -- the side of the mouth, over the artist's skin --------------------------------------------------
+    upper_seeds = np.unique(nearest_vertex(landmarks[contours["lips_outer_upper"][2:-2]]))
+    lower_seeds = np.unique(nearest_vertex(landmarks[contours["lips_outer_lower"][2:-2]]))
+    shared = np.intersect1d(upper_seeds, lower_seeds)
+    upper_seeds = np.setdiff1d(upper_seeds, shared)
+    lower_seeds = np.setdiff1d(lower_seeds, shared)
+    d_up, d_low = (dijkstra(graph, indices=seeds, min_only=True, limit=2 * MOUTH_REACH) if len(seeds)
+                   else np.full(n, np.inf) for seeds in (upper_seeds, lower_seeds))
+    near_mouth = np.minimum(d_up, d_low) < MOUTH_REACH
+    side = np.where(near_mouth, np.where(d_low < d_up, LOWER, UPPER), NONE).astype(np.int8)
+
+    tri, bary, dist = _closest_by_side(template, vertices, side)
 
     corners = t_faces[tri]
     rows = np.repeat(np.arange(n), 3)
@@ -204,15 +194,15 @@ def transfer_to_mesh(template: HeadTemplate, vertices: np.ndarray, faces: np.nda
     joint = template.bones.tmj_pivot
     below = 1.0 - fade(joint[2] - vertices[:, 2], JOINT_CLEARANCE[0], JOINT_CLEARANCE[1])
     ahead = fade(vertices[:, 1] - joint[1], *JOINT_BEHIND)
-    jaw_weight = (np.clip(interpolation @ template.jaw_weight, 0.0, 1.0) * fade(dist, FACE_DISTANCE, JAW_REACH)
+    jaw_weight = (np.clip(interpolation @ template.attachment.jaw_weight, 0.0, 1.0) * fade(dist, FACE_DISTANCE, JAW_REACH)
                   * (1.0 - beyond * (1.0 - below * ahead)))
     jaw_weight[jaw_weight < 1e-3] = 0.0            # far skin stays exactly where it is
     carrier = _separate_shells(template, vertices, graph, used, face_weight)
-    mouth_region = ((interpolation @ template.mouth_region.astype(np.float64)) > 0.5) & (face_weight > 0.5)
-    lip_distance = interpolation @ np.minimum(template.lip_distance, 1.0)      # inf beyond the search
-    wrinkles = {name: (interpolation @ mask) * face_weight for name, mask in template.wrinkle_regions.items()}
+    mouth_region = ((interpolation @ skin.mouth_region.astype(np.float64)) > 0.5) & (face_weight > 0.5)
+    lip_distance = interpolation @ np.minimum(skin.lip_distance, 1.0)      # inf beyond the search
+    wrinkles = {name: (interpolation @ mask) * face_weight for name, mask in skin.wrinkle_regions.items()}
     transfer = MeshTransfer(tri, bary, dist, interpolation, face_weight, jaw_weight, skin.groups[nearest].copy(),
-                            template.node_bone[nearest].copy(), mouth_region, lip_distance, wrinkles, side,
+                            template.attachment.node_bone[nearest].copy(), mouth_region, lip_distance, wrinkles, side,
                             edges=edges, carrier=carrier)
     _lip_margins(transfer, template, vertices, edges, counts)
     # the mouth region (no bone guard, lips kept in front of the teeth) over the artist's own skin as well:
@@ -241,7 +231,7 @@ def _separate_shells(template: HeadTemplate, vertices: np.ndarray, graph, used: 
     carrier = np.full(len(vertices), -1, np.int8)
     share = np.zeros((len(CARRIERS), count))
     for index, name in enumerate(CARRIERS):
-        distance, _ = cKDTree(template.parts[name].vertices).query(vertices, distance_upper_bound=PART_REACH)
+        distance, _ = cKDTree(template.organs.parts[name].vertices).query(vertices, distance_upper_bound=PART_REACH)
         share[index] = np.bincount(component, np.isfinite(distance) & used, count) / size
     best = np.argmax(share, axis=0)
     rides = (share[best, np.arange(count)] > 0.6) & (np.arange(count) != main)

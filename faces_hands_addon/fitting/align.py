@@ -30,8 +30,9 @@ import numpy as np
 from scipy import fft, ndimage
 from scipy.interpolate import LinearNDInterpolator
 
+from ..core.geometry import vertex_normals
 from .surface import TargetSurface, least_squares
-from .template import FaceTemplate, face_template, vertex_normals
+from .template import FaceTemplate, face_template
 
 __all__ = ["Facing", "FACINGS", "Similarity", "DepthMatch", "search_orientations", "refine_search",
            "scaled_rigid_icp", "surface_samples"]

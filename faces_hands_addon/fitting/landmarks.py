@@ -20,10 +20,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import UserError
+from ..core.errors import UserError
 from .align import FACINGS, refine_search, scaled_rigid_icp, search_orientations
 from .nicp import affine_icp, nonrigid_icp, plane_refinement
-from .surface import TargetSurface, checked_mesh, triangle_normals
+from ..core.geometry import checked_mesh, triangle_normals
+from .surface import TargetSurface
 from .template import LEFT_TRAGUS, RIGHT_TRAGUS, face_template
 
 __all__ = ["LandmarkFit", "locate_landmarks", "MAX_RMS_FRACTION", "MIN_MATCHED_FRACTION"]

@@ -45,8 +45,9 @@ from scipy import sparse
 from scipy.sparse.linalg import cg, splu
 
 from .align import correspondence_mask
+from ..core.geometry import vertex_normals
 from .surface import SurfaceHit, TargetSurface, least_squares
-from .template import LEFT_TRAGUS, RIGHT_TRAGUS, FaceTemplate, vertex_normals
+from .template import LEFT_TRAGUS, RIGHT_TRAGUS, FaceTemplate
 
 __all__ = ["NicpResult", "affine_icp", "nonrigid_icp", "plane_refinement", "STIFFNESS_SCHEDULE"]
 

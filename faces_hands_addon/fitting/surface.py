@@ -9,19 +9,18 @@ re-projected after the artist drags a marker. numpy/scipy only.
 """
 from __future__ import annotations
 
+import copy
 import itertools
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..errors import UserError
+from ..core.errors import UserError
+from ..core.geometry import boundary_edge_flags, checked_mesh, closest_points_on_triangles, triangle_normals
 
-__all__ = ["MAX_VERTICES", "MAX_TRIANGLES", "TargetSurface", "SurfaceHit", "checked_mesh", "least_squares",
-           "closest_points_on_triangles", "project_to_surface", "triangle_normals", "boundary_edge_flags"]
+__all__ = ["TargetSurface", "SurfaceHit", "least_squares", "project_to_surface"]
 
-MAX_VERTICES = 5_000_000
-MAX_TRIANGLES = 10_000_000
 _NEAREST_VERTICES = 2      # candidate triangles: those around the k nearest vertices ...
 _NEAREST_CENTROIDS = 8     # ... and the k triangles with the nearest centroids (long thin triangles)
 _MAX_VALENCE = 12          # incident triangles kept per vertex in the candidate table
@@ -33,108 +32,6 @@ def least_squares(rows: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     normal = np.einsum("ri,rj->ij", rows, rows)
     return np.linalg.solve(normal + 1e-12 * np.trace(normal) / len(normal) * np.eye(len(normal)),
                            np.einsum("ri,r->i", rows, rhs))
-
-
-def checked_mesh(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
-    """Validate a triangle mesh given as (N, 3) vertices and (M, 3) vertex-index triangles.
-
-    Raises :class:`UserError` for anything the fitter cannot use: no triangles, non-triangles, bad
-    indices, NaN/inf, a degenerate (flat-to-a-point or zero-area) mesh, or more than
-    ``MAX_VERTICES`` / ``MAX_TRIANGLES``.
-    """
-    try:
-        vertices = np.asarray(vertices, dtype=np.float64)
-        faces = np.asarray(faces)
-    except (TypeError, ValueError):
-        raise UserError("the head mesh must be given as numeric vertex and triangle arrays") from None
-    if vertices.ndim != 2 or vertices.shape[1] != 3:
-        raise UserError(f"head mesh vertices must be an (N, 3) array, not {vertices.shape}")
-    if faces.size == 0:
-        raise UserError("the head mesh has no faces; landmarks can only be located on a surface "
-                        "(select a mesh with faces, not a point cloud)")
-    if faces.ndim != 2 or faces.shape[1] != 3:
-        raise UserError(f"head mesh faces must be triangles, an (M, 3) index array, not {faces.shape}; "
-                        "triangulate the mesh (or pass its loop triangles)")
-    if faces.dtype.kind not in "iu":
-        raise UserError("head mesh face indices must be integers")
-    if len(vertices) > MAX_VERTICES or len(faces) > MAX_TRIANGLES:
-        raise UserError(f"the head mesh is too large ({len(vertices):,} vertices, {len(faces):,} triangles); "
-                        f"the landmark fitter accepts at most {MAX_VERTICES:,} vertices and "
-                        f"{MAX_TRIANGLES:,} triangles: decimate it (Decimate modifier) first")
-    faces = faces.astype(np.int64, copy=False)
-    if faces.min() < 0 or faces.max() >= len(vertices):
-        raise UserError(f"head mesh faces index vertices outside 0..{len(vertices) - 1}")
-    if not np.isfinite(vertices).all():
-        raise UserError("the head mesh has NaN or infinite vertex coordinates; fix the mesh first")
-    used = vertices[np.unique(faces)]
-    extent = float(np.linalg.norm(used.max(0) - used.min(0)))
-    magnitude = float(np.abs(used).max())
-    if extent <= 1e-9 * max(magnitude, 1.0) or extent < 1e-12:
-        raise UserError("the head mesh is degenerate: all its vertices (nearly) coincide")
-    tri = vertices[faces]
-    area = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
-    if not (area > 1e-12 * extent * extent).any():
-        raise UserError("the head mesh is degenerate: all its triangles have zero area")
-    return vertices, faces
-
-
-def triangle_normals(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Unit triangle normals (counter-clockwise = outside) and triangle areas."""
-    tri = vertices[faces]
-    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    norm = np.linalg.norm(cross, axis=1)
-    return cross / np.where(norm > 0, norm, 1.0)[:, None], 0.5 * norm
-
-
-def boundary_edge_flags(faces: np.ndarray, vertex_count: int) -> np.ndarray:
-    """(M, 3) bool: edge opposite corner k of triangle t is used by no other triangle (a mesh border,
-    e.g. the rim of an eye or mouth opening, or the edge of a face mask)."""
-    opposite = np.stack([faces[:, [1, 2]], faces[:, [2, 0]], faces[:, [0, 1]]], axis=1)  # (M, 3, 2)
-    low = opposite.min(axis=2).astype(np.int64)
-    high = opposite.max(axis=2).astype(np.int64)
-    keys = (low * np.int64(vertex_count) + high).ravel()
-    _, inverse, counts = np.unique(keys, return_inverse=True, return_counts=True)
-    return (counts[inverse] == 1).reshape(faces.shape)
-
-
-def closest_points_on_triangles(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray):
-    """Closest point on triangle (a, b, c) to p, row by row, and its barycentric coordinates.
-
-    Vectorised version of Ericson, *Real-Time Collision Detection* (2005) 5.1.5. On an edge or a
-    corner the barycentric coordinates of the other corner(s) are exactly 0 (used to detect borders).
-    """
-    def dot(x, y):
-        return np.einsum("ij,ij->i", x, y)
-
-    ab, ac = b - a, c - a
-    ap, bp, cp = p - a, p - b, p - c
-    d1, d2 = dot(ab, ap), dot(ac, ap)
-    d3, d4 = dot(ab, bp), dot(ac, bp)
-    d5, d6 = dot(ab, cp), dot(ac, cp)
-    va, vb, vc = d3 * d6 - d5 * d4, d5 * d2 - d1 * d6, d1 * d4 - d3 * d2
-
-    def ratio(num, den):
-        return num / np.where(np.abs(den) > 1e-300, den, 1e-300)
-
-    denom = va + vb + vc
-    v, w = ratio(vb, denom), ratio(vc, denom)
-    u = 1.0 - v - w
-    zero, one = np.zeros_like(u), np.ones_like(u)
-    t_bc = ratio(d4 - d3, (d4 - d3) + (d5 - d6))
-    t_ac = ratio(d2, d2 - d6)
-    t_ab = ratio(d1, d1 - d3)
-    # later rules win, so go from the lowest to the highest priority of Ericson's order
-    rules = (((va <= 0) & (d4 - d3 >= 0) & (d5 - d6 >= 0), (zero, 1 - t_bc, t_bc)),   # edge BC
-             ((vb <= 0) & (d2 >= 0) & (d6 <= 0), (1 - t_ac, zero, t_ac)),             # edge AC
-             ((d6 >= 0) & (d5 <= d6), (zero, zero, one)),                             # corner C
-             ((vc <= 0) & (d1 >= 0) & (d3 <= 0), (1 - t_ab, t_ab, zero)),             # edge AB
-             ((d3 >= 0) & (d4 <= d3), (zero, one, zero)),                             # corner B
-             ((d1 <= 0) & (d2 <= 0), (one, zero, zero)))                              # corner A
-    for region, (nu, nv, nw) in rules:
-        u, v, w = np.where(region, nu, u), np.where(region, nv, v), np.where(region, nw, w)
-    bary = np.clip(np.stack([u, v, w], axis=1), 0.0, 1.0)
-    point = bary[:, :1] * a + bary[:, 1:2] * b + bary[:, 2:] * c
-    return point, bary
 
 
 @dataclass
@@ -206,9 +103,9 @@ class TargetSurface:
         return self._size_buckets
 
     def flipped(self) -> "TargetSurface":
-        """The same surface with inverted normals (for meshes whose normals point inwards)."""
-        other = object.__new__(TargetSurface)
-        other.__dict__.update(self.__dict__)
+        """The same surface with inverted normals (for meshes whose normals point inwards); the search
+        structures are shared, not rebuilt."""
+        other = copy.copy(self)
         other.normals = -self.normals
         return other
 

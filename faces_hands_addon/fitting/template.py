@@ -16,7 +16,7 @@ from scipy.spatial import cKDTree
 
 from .. import assets
 
-__all__ = ["FaceTemplate", "face_template", "vertex_normals", "LEFT_TRAGUS", "RIGHT_TRAGUS", "NOSE_TIP"]
+__all__ = ["FaceTemplate", "face_template", "LEFT_TRAGUS", "RIGHT_TRAGUS", "NOSE_TIP"]
 
 LEFT_TRAGUS, RIGHT_TRAGUS = 454, 234   # widest face-oval points (character's left +X / right -X)
 NOSE_TIP = 1
@@ -25,17 +25,6 @@ NOSE_TIP = 1
 # crop may hide. Centre and half-axes in canonical metres.
 _MATCH_CENTRE_Z = -0.005
 _MATCH_HALF_AXES = (0.065, 0.085)
-
-
-def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """Area-weighted unit vertex normals."""
-    tri = vertices[faces]
-    face_normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    normals = np.zeros_like(vertices)
-    for corner in range(3):
-        np.add.at(normals, faces[:, corner], face_normal)
-    norm = np.linalg.norm(normals, axis=1, keepdims=True)
-    return normals / np.where(norm > 0, norm, 1.0)
 
 
 @dataclass(frozen=True)

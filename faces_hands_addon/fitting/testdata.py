@@ -99,7 +99,8 @@ def _remesh_canonical(spacing: float, rng: np.random.Generator, holes: bool):
         keep &= ~inside_polygon(centroid, uv[poly])
     triangles = triangles[keep]
     d = points[triangles]
-    signed = np.cross(d[:, 1] - d[:, 0], d[:, 2] - d[:, 0])
+    u, v = d[:, 1] - d[:, 0], d[:, 2] - d[:, 0]
+    signed = u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]          # 2-D cross product (numpy 2 refuses np.cross here)
     triangles = np.where((signed < 0)[:, None], triangles[:, [0, 2, 1]], triangles)
     triangles = triangles[np.abs(signed) > 1e-14]
     used, triangles = np.unique(triangles, return_inverse=True)

@@ -36,7 +36,24 @@ class BoneHalfSpaceGuard:
         self._depth = np.empty(self.nodes.shape[0])
         self._transforms: list[np.ndarray] = []
         self._surfaces = None
+        self._own = None
         self._initial = (self.local_point.copy(), self.local_normal.copy(), self.bone.copy())
+
+    def keep_own_bones(self) -> None:
+        """Guard every node against its *own* bone only (the bone it has now), and re-anchor its plane on the
+        exact closest point of that bone only once the node has slid over the bone, measured in the bone's
+        own frame (:meth:`refresh`).
+
+        This is the guard a head fitted to an artist's mesh needs. Re-anchoring on the nearest vertex of
+        whichever bone is nearest misfires there twice: chin skin swinging down and back with the opening
+        jaw passes within reach of the upper teeth and is held by their plane (the chin crumples), and a
+        node carried by the jaw, moving with it, is re-anchored every frame on a nearest bone *vertex*
+        whose plane can cut through the node's own rest place at the mandible's lower border. Skin carried
+        by a bone cannot reach the other bone from outside, and its rest plane stays valid while it rides
+        with its bone; the lips, where both bones matter, are left to the teeth guard. A new plane must leave
+        the node's own rest place outside (a node lagging behind its bone over a concave part of it would
+        otherwise get a plane across its way back). Needs :meth:`attach_bone_surfaces` with ``exact``."""
+        self._own = self.bone.copy()
 
     def reset(self) -> None:
         """Back to the planes given at construction (and, with surfaces, to the rest anchoring)."""
@@ -107,8 +124,12 @@ class BoneHalfSpaceGuard:
     def refresh(self, positions: np.ndarray, everything: bool = False) -> None:
         """Re-anchor the plane of every node that slid since its last anchoring at the nearest vertex of the
         nearest bone in the bones' current poses (once per frame): skin that slides along the bone keeps an
-        accurate plane, and skin near the other bone (lips over the other jaw's teeth) is guarded from it."""
+        accurate plane, and skin near the other bone (lips over the other jaw's teeth) is guarded from it.
+        After :meth:`keep_own_bones`, only the node's own bone is considered (see there)."""
         if not self._surfaces:
+            return
+        if self._own is not None:
+            self._refresh_own_bone(positions, everything)
             return
         all_x = positions[:, self.nodes]
         if self._last is None or everything:
@@ -156,6 +177,35 @@ class BoneHalfSpaceGuard:
         self.bone[active] = owner
         if self._last is not None:
             self._last[:, active] = x.T
+        self._pose(active)
+
+    def _refresh_own_bone(self, positions: np.ndarray, everything: bool) -> None:
+        """:meth:`refresh` for :meth:`keep_own_bones`; ``_last`` holds node positions in their bone's frame."""
+        if self._exact is None:
+            return
+        all_x = positions[:, self.nodes]
+        local = np.empty_like(all_x)
+        for bone, matrix in enumerate(self._transforms):
+            mine = self._own == bone
+            local[:, mine] = matrix[:3, :3].T @ (all_x[:, mine] - matrix[:3, 3:4])    # into the bone's frame
+        if self._last is None or everything:
+            active = np.arange(len(self.nodes))
+        else:
+            step = local - self._last
+            active = np.flatnonzero(np.einsum("ij,ij->j", step, step) > self._moved ** 2)
+        for bone, matrix in enumerate(self._transforms):
+            mine = active[self._own[active] == bone]
+            if not len(mine):
+                continue
+            point, normal = self._exact(bone, local[:, mine].T)
+            # a plane that would push the node's own rest place (its target when nothing pulls it) into the
+            # bone is the wrong one (a node lagging behind its bone over a concave part of it)
+            ok = np.einsum("ij,ij->i", self._rest[:, mine].T - point, normal) >= self.clearance[mine]
+            if self._facing is not None:
+                ok &= np.einsum("ij,ij->i", normal @ matrix[:3, :3].T, self._facing[:, mine].T) > 0.2
+            self.local_point[:, mine[ok]], self.local_normal[:, mine[ok]] = point[ok].T, normal[ok].T
+        if self._last is not None and len(active):
+            self._last[:, active] = local[:, active]
         self._pose(active)
 
     def penetration(self, positions: np.ndarray) -> np.ndarray:

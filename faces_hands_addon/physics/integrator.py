@@ -26,7 +26,7 @@ from typing import Callable
 
 import numpy as np
 
-from ..errors import UserError
+from ..core.errors import UserError
 from .springs import SpringNetwork
 
 __all__ = ["gershgorin_eigen_bound", "stable_time_step", "LeapfrogIntegrator"]
@@ -119,10 +119,12 @@ class LeapfrogIntegrator:
         self._free = (~network.kinematic).astype(np.float64)
         self._inverse_mass = self._free / network.masses
         self._accel = np.empty_like(network.positions)
+        self._factor_cache = None
         self.refresh()
 
     def refresh(self) -> None:
         """Recompute the guard's substep after masses, stiffness, damping or kinematic flags changed."""
+        self._factor_cache = None
         self._free = (~self.network.kinematic).astype(np.float64)
         self._inverse_mass = self._free / self.network.masses
         self.max_substep = stable_time_step(self.network, self.damping, self.safety)
@@ -147,26 +149,35 @@ class LeapfrogIntegrator:
             return 1
         return max(1, math.ceil(frame_dt / self.max_substep - 1e-9))
 
+    def _factors(self, dt: float):
+        """Per-node factors of a substep of ``dt`` (cached: a frame's substeps all have the same length)."""
+        key = (dt, self.mass_scale, self.started)
+        if self._factor_cache is None or self._factor_cache[0] != key:
+            inverse_mass = self._inverse_mass if self.mass_scale == 1.0 else self._inverse_mass / self.mass_scale
+            h = (0.5 * dt) * self.damping * inverse_mass            # gamma dt / (2m); 0 on kinematic nodes
+            if not self.started:
+                # Euler start over half a step, v(dt/2) = v(0) + dt/2 (F - gamma v(0)) / m, damping exact
+                h *= 0.5
+                dt_kick = 0.5 * dt
+            else:
+                dt_kick = dt
+            decay = np.exp(-2.0 * h)
+            impulse = np.divide(1.0 - decay, 2.0 * h, out=np.ones_like(h), where=h > 1e-12)
+            self._factor_cache = (key, inverse_mass, decay, dt_kick * impulse)
+        return self._factor_cache[1:]
+
     def step(self, dt: float) -> None:
         """One substep of length ``dt``: Euler if it is the first, leapfrog Verlet afterwards (3.1.2)."""
         net = self.network
         x, v, accel = net.positions, self.velocity, self._accel
         force = net.forces(x)
-        inverse_mass = self._inverse_mass if self.mass_scale == 1.0 else self._inverse_mass / self.mass_scale
+        inverse_mass, decay, kick = self._factors(dt)
+        self.started = True
         np.multiply(force, inverse_mass, out=accel)
-        h = (0.5 * dt) * self.damping * inverse_mass            # gamma dt / (2m); 0 on kinematic nodes
-        if not self.started:
-            # Euler start over half a step, v(dt/2) = v(0) + dt/2 (F - gamma v(0)) / m, damping exact
-            h *= 0.5
-            dt_kick = 0.5 * dt
-            self.started = True
-        else:
-            dt_kick = dt
-        decay = np.exp(-2.0 * h)
-        impulse = np.divide(1.0 - decay, 2.0 * h, out=np.ones_like(h), where=h > 1e-12)
         # leapfrog: v(t+dt/2) = e^-2h v(t-dt/2) + dt F/m (1 - e^-2h)/2h  (exact for the damping term)
         v *= decay
-        v += accel * (dt_kick * impulse)
+        accel *= kick
+        v += accel
         v *= self._free
         x += dt * v
         self.time += dt

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import linalg
 
-from ..errors import UserError
+from ..core.errors import UserError
 
 __all__ = ["RBFWarp"]
 

@@ -8,7 +8,7 @@ second spring to that point mirrored outward through the node, which models the 
 skin and keeps it off the bone (Fig. 3.4). Attachment points are kinematic: the rig moves them with the
 jaw and the muscles, and the skin follows through the springs.
 
-Layout for speed (see ../shared/notes/verified-recipes.md): coordinates are stored as ``(3, N)`` so one
+Layout for speed (see presets/SOURCES.md, "Speed and export facts"): coordinates are stored as ``(3, N)`` so one
 flattened ``np.bincount`` scatters the forces of all springs onto all three axes at once, and every
 temporary lives in a buffer allocated once.
 
@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import UserError
+from ..core.errors import UserError
 
 __all__ = ["SpringSet", "Attachments", "SpringNetwork", "biphasic_force"]
 

@@ -26,7 +26,7 @@ import re
 
 import numpy as np
 
-from ..errors import UserError
+from ..core.errors import UserError
 from .audio import as_mono, load_audio, to_analysis_rate, to_int16
 from .emoticons import extract_emoticons
 from .phonemes import SILENCE, from_arpabet, is_vowel, to_arpabet

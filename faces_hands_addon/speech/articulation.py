@@ -34,18 +34,17 @@ A target name without ``_L``/``_R`` sets both sides.
 """
 from __future__ import annotations
 
-import json
 import os
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
-from ..errors import UserError
+from ..core.errors import UserError
+from ..core.presets import PresetFormat, read_preset, read_preset_file, register_format
 from .phonemes import PHONES, VISEME_OF_PHONE, VISEMES
 
-PRESET_DIR = Path(__file__).resolve().parents[2] / "presets" / "speech"
-FORMAT = "faces_hands.speech_targets"
+FORMAT = register_format(PresetFormat("faces_hands.speech_targets", 1, required=("kind", "classes"),
+                                     shape={"kind": str, "classes": {str: {}}, "parameters": {str: {}}}))
 DOMINANCE_KEYS = ("alpha", "theta_back", "theta_fwd", "peak_offset", "c", "peak", "alpha_at")
 PHASES = ("normal", "closure", "closure_release")
 
@@ -149,44 +148,32 @@ def _phone_list(source, where, phones) -> list[str]:
     return phones
 
 
-def compile_target_set(data: dict, source: str = "preset") -> TargetSet:
-    """Validate a preset dictionary (see the module docstring) and compile it to arrays."""
-    if not isinstance(data, dict) or data.get("format") != FORMAT:
-        _fail(source, f"not a speech target preset (\"format\" must be \"{FORMAT}\")")
-    if data.get("version") != 1:
-        _fail(source, f"unsupported version {data.get('version')!r}; this add-on reads version 1")
-    kind = data.get("kind")
-    if kind not in ("muscles", "visemes"):
-        _fail(source, f"\"kind\" must be \"muscles\" or \"visemes\", not {kind!r}")
-
+def _parameter_table(source: str, data: dict, kind: str):
+    """The preset's parameters, their rest values and ranges (visemes: the 15 viseme weights)."""
     if kind == "visemes":
-        parameters = list(VISEMES)
-        rest = {v: 0.0 for v in VISEMES}
-        ranges = {v: (0.0, 1.0) for v in VISEMES}
-    else:
-        spec = data.get("parameters")
-        if not isinstance(spec, dict) or not spec:
-            _fail(source, "\"parameters\" must map each parameter name to {\"rest\", \"range\"}")
-        parameters, rest, ranges = [], {}, {}
-        for name, entry in spec.items():
-            if not isinstance(entry, dict) or "range" not in entry:
-                _fail(source, f"parameter {name!r} needs a \"range\": [low, high]")
-            rng = entry["range"]
-            if not (isinstance(rng, list) and len(rng) == 2):
-                _fail(source, f"parameter {name!r}: range must be [low, high]")
-            low = _number(source, f"{name}.range[0]", rng[0])
-            high = _number(source, f"{name}.range[1]", rng[1])
-            if high <= low:
-                _fail(source, f"parameter {name!r}: range low must be below high")
-            parameters.append(name)
-            ranges[name] = (low, high)
-            rest[name] = _number(source, f"{name}.rest", entry.get("rest", 0.0), low, high)
+        return list(VISEMES), {v: 0.0 for v in VISEMES}, {v: (0.0, 1.0) for v in VISEMES}
+    spec = data.get("parameters")
+    if not isinstance(spec, dict) or not spec:
+        _fail(source, "\"parameters\" must map each parameter name to {\"rest\", \"range\"}")
+    parameters, rest, ranges = [], {}, {}
+    for name, entry in spec.items():
+        if not isinstance(entry, dict) or "range" not in entry:
+            _fail(source, f"parameter {name!r} needs a \"range\": [low, high]")
+        rng = entry["range"]
+        if not (isinstance(rng, list) and len(rng) == 2):
+            _fail(source, f"parameter {name!r}: range must be [low, high]")
+        low = _number(source, f"{name}.range[0]", rng[0])
+        high = _number(source, f"{name}.range[1]", rng[1])
+        if high <= low:
+            _fail(source, f"parameter {name!r}: range low must be below high")
+        parameters.append(name)
+        ranges[name] = (low, high)
+        rest[name] = _number(source, f"{name}.rest", entry.get("rest", 0.0), low, high)
+    return parameters, rest, ranges
 
-    defaults = _dominance(source, "defaults", data.get("defaults", {}),
-                          {"alpha": 1.0, "theta_back": 25.0, "theta_fwd": 25.0, "peak_offset": 0.0,
-                           "c": 1.0, "peak": "center", "alpha_at": "peak"})
-    unspecified_alpha = _number(source, "unspecified_alpha", data.get("unspecified_alpha", 0.1), low=0.0)
 
+def _phase_table(source: str, data: dict) -> tuple[dict[str, str], float]:
+    """Which phones are closures (3.1.3: /p b/ closure + release, /m f v/ closure) and the closure share."""
     phases_spec = data.get("phases", {})
     phase_of: dict[str, str] = {}
     for phase in ("closure_release", "closure"):
@@ -196,8 +183,12 @@ def compile_target_set(data: dict, source: str = "preset") -> TargetSet:
             phase_of[p] = phase
     closure_fraction = _number(source, "phases.closure_fraction", phases_spec.get("closure_fraction", 0.6),
                                low=0.05, high=0.95)
+    return phase_of, closure_fraction
 
-    classes = data.get("classes")
+
+def _class_of_phone(source: str, classes, kind: str) -> dict[str, str]:
+    """Phone -> class name: the classes' phone lists, then (visemes) the engine's viseme table, then the
+    ``default`` class."""
     if not isinstance(classes, dict) or not classes:
         _fail(source, "\"classes\" must map class names to {\"phones\", \"targets\", \"dominance\"}")
     explicit: dict[str, str] = {}
@@ -222,68 +213,106 @@ def compile_target_set(data: dict, source: str = "preset") -> TargetSet:
                       "\"default\" class")
     for p in missing:
         class_of[p] = default_class
+    return class_of
 
-    P = len(parameters)
-    index = {name: i for i, name in enumerate(parameters)}
-    rest_vector = np.array([rest[n] for n in parameters])
-    compiled: dict[str, tuple] = {}
-    for cname, cls in classes.items():
-        unknown = set(cls) - {"phones", "targets", "dominance", "parameter_dominance", "description"}
-        if unknown:
-            _fail(source, f"class {cname!r} has unknown keys {sorted(unknown)}")
-        dom = _dominance(source, f"classes.{cname}.dominance", cls.get("dominance", {}), defaults)
-        target = rest_vector.copy()
-        specified = np.zeros(P, dtype=bool)
-        if kind == "visemes":
-            if "targets" in cls:
-                _fail(source, f"class {cname!r}: viseme classes take no targets (they are one-hot)")
-            target[:] = 0.0
-            target[index[cname]] = 1.0
-            specified[:] = True
-        else:
-            targets = cls.get("targets", {})
-            if not isinstance(targets, dict):
-                _fail(source, f"class {cname!r}: targets must map parameters to values")
-            for name, value in targets.items():
-                for full in _expand(source, f"class {cname!r}", name, parameters):
-                    target[index[full]] = _number(source, f"classes.{cname}.targets.{name}", value,
-                                                  *ranges[full])
-                    specified[index[full]] = True
-        per = {k: np.full(P, dom[k], dtype=float) for k in ("alpha", "theta_back", "theta_fwd",
-                                                            "peak_offset", "c")}
-        per["alpha"][~specified] = unspecified_alpha
-        for name, spec in (cls.get("parameter_dominance") or {}).items():
-            override = _dominance(source, f"classes.{cname}.parameter_dominance.{name}", spec, dom)
-            for full in _expand(source, f"class {cname!r}", name, parameters):
-                for k in per:
-                    per[k][index[full]] = override[k]
-        compiled[cname] = (target, per, dom["peak"] == "start", dom["alpha_at"] == "edges")
 
-    rows = list(PHONES)
-    row_of = {p: i for i, p in enumerate(rows)}
-    stack = {k: np.stack([compiled[class_of[p]][1][k] for p in rows]) for k in
-             ("alpha", "theta_back", "theta_fwd", "peak_offset", "c")}
+@dataclass(frozen=True)
+class _Table:
+    """What compiling a class needs to know about the preset's parameters."""
+    kind: str
+    parameters: list
+    index: dict
+    rest: np.ndarray
+    ranges: dict
+    defaults: dict
+    unspecified_alpha: float
 
+
+def _compile_class(source: str, cname: str, cls: dict, table: _Table):
+    """One class -> (target vector, per-parameter dominance arrays, peak at start?, alpha at edges?)."""
+    unknown = set(cls) - {"phones", "targets", "dominance", "parameter_dominance", "description"}
+    if unknown:
+        _fail(source, f"class {cname!r} has unknown keys {sorted(unknown)}")
+    dom = _dominance(source, f"classes.{cname}.dominance", cls.get("dominance", {}), table.defaults)
+    count = len(table.parameters)
+    target = table.rest.copy()
+    specified = np.zeros(count, dtype=bool)
+    if table.kind == "visemes":
+        if "targets" in cls:
+            _fail(source, f"class {cname!r}: viseme classes take no targets (they are one-hot)")
+        target[:] = 0.0
+        target[table.index[cname]] = 1.0
+        specified[:] = True
+    else:
+        targets = cls.get("targets", {})
+        if not isinstance(targets, dict):
+            _fail(source, f"class {cname!r}: targets must map parameters to values")
+        for name, value in targets.items():
+            for full in _expand(source, f"class {cname!r}", name, table.parameters):
+                target[table.index[full]] = _number(source, f"classes.{cname}.targets.{name}", value,
+                                                    *table.ranges[full])
+                specified[table.index[full]] = True
+    per = {k: np.full(count, dom[k], dtype=float) for k in ("alpha", "theta_back", "theta_fwd", "peak_offset", "c")}
+    per["alpha"][~specified] = table.unspecified_alpha
+    for name, spec in (cls.get("parameter_dominance") or {}).items():
+        override = _dominance(source, f"classes.{cname}.parameter_dominance.{name}", spec, dom)
+        for full in _expand(source, f"class {cname!r}", name, table.parameters):
+            for k in per:
+                per[k][table.index[full]] = override[k]
+    return target, per, dom["peak"] == "start", dom["alpha_at"] == "edges"
+
+
+def _release_phase(source: str, data: dict, table: _Table):
+    """The release after a closure (3.1.3): its targets (None = the next segment's) and dominance."""
     release_spec = data.get("release", {"targets": "next"})
     if not isinstance(release_spec, dict) or set(release_spec) - {"targets", "dominance", "description"}:
         _fail(source, "release must be an object with \"targets\" and \"dominance\"")
-    release_dom = _dominance(source, "release.dominance", release_spec.get("dominance", {}), defaults)
+    release_dom = _dominance(source, "release.dominance", release_spec.get("dominance", {}), table.defaults)
     release_targets = release_spec.get("targets", "next")
+    count = len(table.parameters)
     if release_targets == "next":
         release_vector = None
     elif isinstance(release_targets, dict):
-        release_vector = rest_vector.copy() if kind == "muscles" else np.zeros(P)
+        release_vector = table.rest.copy() if table.kind == "muscles" else np.zeros(count)
         for name, value in release_targets.items():
-            for full in _expand(source, "release", name, parameters):
-                release_vector[index[full]] = _number(source, f"release.targets.{name}", value, *ranges[full])
+            for full in _expand(source, "release", name, table.parameters):
+                release_vector[table.index[full]] = _number(source, f"release.targets.{name}", value,
+                                                             *table.ranges[full])
     else:
         _fail(source, "release.targets must be \"next\" (the following segment's targets) or an "
                       "object of parameter targets")
-    release = Dominance(*(np.full(P, release_dom[k], dtype=float) for k in
+    release = Dominance(*(np.full(count, release_dom[k], dtype=float) for k in
                           ("alpha", "theta_back", "theta_fwd", "peak_offset", "c")), True)
+    return release_vector, release
 
-    return TargetSet(kind=kind, parameters=tuple(parameters), rest=rest_vector, ranges=ranges,
-                     row_of=row_of, targets=np.stack([compiled[class_of[p]][0] for p in rows]),
+
+def compile_target_set(data: dict, source: str = "preset") -> TargetSet:
+    """Validate a preset dictionary (see the module docstring) and compile it to arrays."""
+    if not isinstance(data, dict) or data.get("format") != FORMAT.name:
+        _fail(source, f"not a speech target preset (\"format\" must be \"{FORMAT.name}\")")
+    if data.get("version") != 1:
+        _fail(source, f"unsupported version {data.get('version')!r}; this add-on reads version 1")
+    kind = data.get("kind")
+    if kind not in ("muscles", "visemes"):
+        _fail(source, f"\"kind\" must be \"muscles\" or \"visemes\", not {kind!r}")
+    parameters, rest, ranges = _parameter_table(source, data, kind)
+    defaults = _dominance(source, "defaults", data.get("defaults", {}),
+                          {"alpha": 1.0, "theta_back": 25.0, "theta_fwd": 25.0, "peak_offset": 0.0,
+                           "c": 1.0, "peak": "center", "alpha_at": "peak"})
+    unspecified_alpha = _number(source, "unspecified_alpha", data.get("unspecified_alpha", 0.1), low=0.0)
+    phase_of, closure_fraction = _phase_table(source, data)
+    classes = data.get("classes")
+    class_of = _class_of_phone(source, classes, kind)
+    table = _Table(kind, parameters, {name: i for i, name in enumerate(parameters)},
+                   np.array([rest[n] for n in parameters]), ranges, defaults, unspecified_alpha)
+    compiled = {cname: _compile_class(source, cname, cls, table) for cname, cls in classes.items()}
+    rows = list(PHONES)
+    stack = {k: np.stack([compiled[class_of[p]][1][k] for p in rows]) for k in
+             ("alpha", "theta_back", "theta_fwd", "peak_offset", "c")}
+    release_vector, release = _release_phase(source, data, table)
+    return TargetSet(kind=kind, parameters=tuple(parameters), rest=table.rest, ranges=ranges,
+                     row_of={p: i for i, p in enumerate(rows)},
+                     targets=np.stack([compiled[class_of[p]][0] for p in rows]),
                      alpha=stack["alpha"], theta_back=stack["theta_back"], theta_fwd=stack["theta_fwd"],
                      peak_offset=stack["peak_offset"], c=stack["c"],
                      peak_at_start=np.array([compiled[class_of[p]][2] for p in rows]),
@@ -294,23 +323,37 @@ def compile_target_set(data: dict, source: str = "preset") -> TargetSet:
 
 def load_target_set(path: str | os.PathLike) -> TargetSet:
     """Read and validate a preset file (UserError with the file name and the problem)."""
-    path = os.fspath(path)
-    name = os.path.basename(path)
-    try:
-        with open(path, encoding="utf-8") as handle:
-            data = json.load(handle)
-    except FileNotFoundError:
-        raise UserError(f"preset {path!r} does not exist") from None
-    except json.JSONDecodeError as exc:
-        raise UserError(f"{name}: not valid JSON (line {exc.lineno}, column {exc.colno}: {exc.msg})") from None
-    return compile_target_set(data, name)
+    doc, source = read_preset_file(path, FORMAT.name)
+    return compile_target_set(doc, os.path.basename(source))
+
+
+def _shipped_or_user(name: str) -> TargetSet:
+    doc, source = read_preset(f"speech/{name}", FORMAT.name)
+    return compile_target_set(doc, os.path.basename(source))
 
 
 def load_articulation(path: str | os.PathLike | None = None) -> TargetSet:
-    """The muscle/jaw/tongue targets (default ``presets/speech/articulation.json``)."""
-    return load_target_set(path or PRESET_DIR / "articulation.json")
+    """The muscle/jaw/tongue targets (default ``presets/speech/articulation.json``, or the user's copy)."""
+    return load_target_set(path) if path else _shipped_or_user("articulation.json")
 
 
 def load_viseme_targets(path: str | os.PathLike | None = None) -> TargetSet:
-    """The one-hot viseme targets (default ``presets/speech/visemes.json``)."""
-    return load_target_set(path or PRESET_DIR / "visemes.json")
+    """The one-hot viseme targets (default ``presets/speech/visemes.json``, or the user's copy)."""
+    return load_target_set(path) if path else _shipped_or_user("visemes.json")
+
+
+def class_controls(name: str, path: str | os.PathLike | None = None) -> dict[str, float]:
+    """The mouth shape of one articulation class as control values (side-less names expanded to _L and
+    _R): the single definition the viseme expressions start from (``presets/expressions/visemes.json``)."""
+    doc, source = read_preset_file(path, FORMAT.name) if path else read_preset("speech/articulation.json",
+                                                                                FORMAT.name)
+    target_set = compile_target_set(doc, os.path.basename(source))
+    cls = doc["classes"].get(name)
+    if cls is None:
+        raise UserError(f"{os.path.basename(source)}: no articulation class {name!r}; classes: "
+                        f"{', '.join(doc['classes'])}")
+    out = {}
+    for parameter, value in (cls.get("targets") or {}).items():
+        for full in _expand(source, f"class {name!r}", parameter, target_set.parameters):
+            out[full] = float(value)
+    return out

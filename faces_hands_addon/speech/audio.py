@@ -5,32 +5,96 @@ pocketsphinx en-us acoustic model and :mod:`speech.pitch` expect)."""
 from __future__ import annotations
 
 import os
+from dataclasses import dataclass
 from math import gcd
 
 import numpy as np
 from scipy.signal import resample_poly
 
-from ..errors import UserError
+from ..core.errors import UserError
 
 ANALYSIS_RATE = 16000
+MAX_TAKE_SECONDS = 3600.0        # one take: an hour of speech (longer recordings: split them into takes)
+MAX_DECODED_BYTES = 4_000_000_000   # float32 samples of all channels, checked from the header before decoding
+SOFTWARE = "Faces & Hands"       # the WAV "software" tag that marks files this extension wrote
+
+
+@dataclass(frozen=True)
+class AudioHeader:
+    """What an audio file's header says, read without decoding its samples."""
+    frames: int
+    sample_rate: int
+    channels: int
+    software: str
+
+    @property
+    def duration(self) -> float:
+        return self.frames / self.sample_rate if self.sample_rate > 0 else 0.0
+
+    @property
+    def written_here(self) -> bool:
+        """The file carries this extension's software tag (a WAV written beside a take)."""
+        return self.software.startswith(SOFTWARE)
+
+
+def _soundfile():
+    try:
+        import soundfile  # noqa: PLC0415 - bundled wheel, imported when audio is read
+    except Exception as exc:  # pragma: no cover - the wheel ships with the add-on
+        raise UserError(f"cannot read or write audio: the soundfile module is missing ({exc})") from None
+    return soundfile
+
+
+def _reason(exc: Exception) -> str:
+    return str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+
+
+def audio_header(path: str | os.PathLike) -> AudioHeader:
+    """The header of an audio file (length, rate, channels), checked against the take limits before any
+    work: an hour at most, and at most ``MAX_DECODED_BYTES`` once decoded. Instant even for huge files."""
+    path = os.fspath(path)
+    name = os.path.basename(path)
+    if not os.path.isfile(path):
+        raise UserError(f"audio file {path!r} does not exist")
+    try:
+        with _soundfile().SoundFile(path) as handle:
+            header = AudioHeader(int(handle.frames), int(handle.samplerate), int(handle.channels),
+                                 str(handle.software or ""))
+    except UserError:
+        raise
+    except Exception as exc:  # soundfile raises LibsndfileError / RuntimeError / TypeError
+        raise UserError(f"cannot read audio file {name!r} ({_reason(exc)}); use a WAV, FLAC or OGG file") from None
+    if header.frames <= 0 or header.sample_rate <= 0:
+        raise UserError(f"audio file {name!r} has no samples (zero length)")
+    if header.duration > MAX_TAKE_SECONDS:
+        raise UserError(f"audio file {name!r} is {header.duration / 60:.1f} minutes long; one take may be at most "
+                        f"{MAX_TAKE_SECONDS / 60:.0f} minutes: split the recording into takes")
+    if header.frames * header.channels * 4 > MAX_DECODED_BYTES:
+        raise UserError(f"audio file {name!r} would take {header.frames * header.channels * 4 / 1e9:.1f} GB "
+                        f"decoded ({header.channels} channels); the limit is {MAX_DECODED_BYTES / 1e9:.0f} GB")
+    return header
+
+
+def written_here(path: str | os.PathLike) -> bool:
+    """``path`` is an audio file this extension wrote (its software tag), so a new take may replace it."""
+    try:
+        with _soundfile().SoundFile(os.fspath(path)) as handle:
+            return str(handle.software or "").startswith(SOFTWARE)
+    except Exception:  # not audio, unreadable, missing: not ours
+        return False
 
 
 def load_audio(path: str | os.PathLike) -> tuple[np.ndarray, int]:
     """``(mono float32 samples in [-1, 1], sample rate)`` of an audio file.
 
-    Raises :class:`UserError` for a missing, unreadable, corrupt or empty file."""
+    Raises :class:`UserError` for a missing, unreadable, corrupt, empty or too long file (the length is
+    checked from the header first, ``audio_header``)."""
     path = os.fspath(path)
-    if not os.path.isfile(path):
-        raise UserError(f"audio file {path!r} does not exist")
+    audio_header(path)
     try:
-        import soundfile  # noqa: PLC0415 - bundled wheel, imported when audio is read
-    except Exception as exc:  # pragma: no cover - the wheel ships with the add-on
-        raise UserError(f"cannot read audio: the soundfile module is missing ({exc})") from None
-    try:
-        data, rate = soundfile.read(path, dtype="float32", always_2d=True)
+        data, rate = _soundfile().read(path, dtype="float32", always_2d=True)
     except Exception as exc:  # soundfile raises LibsndfileError / RuntimeError / TypeError
-        reason = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise UserError(f"cannot read audio file {os.path.basename(path)!r} ({reason}); "
+        raise UserError(f"cannot read audio file {os.path.basename(path)!r} ({_reason(exc)}); "
                         "use a WAV, FLAC or OGG file") from None
     if data.shape[0] == 0:
         raise UserError(f"audio file {os.path.basename(path)!r} has no samples (zero length)")
@@ -70,12 +134,14 @@ def to_int16(samples: np.ndarray) -> np.ndarray:
 
 def save_wav(path: str | os.PathLike, samples: np.ndarray, sample_rate: int) -> None:
     """Write mono float samples as a 16-bit WAV (e.g. the audio of a synthesised Utterance, to put
-    beside a baked animation: thesis 3.1.4, audio and animation come from the same timing)."""
+    beside a baked animation: thesis 3.1.4, audio and animation come from the same timing), tagged with
+    ``SOFTWARE`` so a later run knows it may replace the file."""
+    samples = np.asarray(samples, dtype=np.float32)
+    if not np.all(np.isfinite(samples)):
+        raise UserError("the audio to write contains invalid (NaN/inf) samples")
     try:
-        import soundfile  # noqa: PLC0415
-    except Exception as exc:  # pragma: no cover
-        raise UserError(f"cannot write audio: the soundfile module is missing ({exc})") from None
-    try:
-        soundfile.write(os.fspath(path), np.asarray(samples, dtype=np.float32), int(sample_rate), subtype="PCM_16")
+        with _soundfile().SoundFile(os.fspath(path), "w", int(sample_rate), 1, "PCM_16", format="WAV") as handle:
+            handle.software = SOFTWARE
+            handle.write(samples)
     except Exception as exc:
         raise UserError(f"cannot write {os.fspath(path)!r} ({exc})") from None

@@ -39,7 +39,7 @@ from typing import Sequence
 import numpy as np
 
 from ..anim.tracks import Track, TrackSet, frame_times
-from ..errors import UserError
+from ..core.errors import UserError
 from .articulation import TargetSet, load_articulation
 from .phonemes import PHONES, SILENCE
 

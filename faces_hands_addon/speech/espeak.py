@@ -15,21 +15,27 @@ is the absolute index of the sample where it starts (22050 Hz for the bundled vo
 list of the next synthesis (events of the first audio block go missing, seen with espeak-ng 1.52);
 pronunciations come from a synthesis with IPA phoneme events instead (``tts.pronounce``).
 
-Repeatability: espeak-ng keeps some oscillator state from one synthesis to the next inside a process,
-so synthesising the same text twice in one process can shift phoneme boundaries by a few
-milliseconds (always consistently with the audio of that call). Its random generator is seeded on
-every call.
+Repeatability: espeak-ng keeps state in static variables from one synthesis to the next (the same text
+spoken twice in one process came out a few samples longer, phone boundaries shifted), and neither
+``espeak_Terminate`` nor a new ``espeak_Initialize`` clears it. Every synthesis therefore runs in a fresh
+instance: a private copy of the wheel's library is loaded, initialised, used once and unloaded, so the same
+text gives the same samples in every call (~15 ms per synthesis). Its random generator is seeded on every
+call. (A system libespeak-ng, which cannot be copied, is shared and keeps the old behaviour.)
 """
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import ctypes.util
+import os
+import shutil
+import tempfile
 import threading
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import UserError
+from ..core.errors import UserError
 
 _AUDIO_OUTPUT_SYNCHRONOUS = 2
 _INITIALIZE_PHONEME_EVENTS = 0x1
@@ -103,6 +109,8 @@ class _Engine:
     lib = None
     sample_rate = 0
     source = ""
+    path = ""
+    data = None
     callback = None
     chunks: list[bytes] = []
     events: list[SynthEvent] = []
@@ -137,13 +145,50 @@ def _load_library():
         _Engine.callback = _CALLBACK(_collect)
         lib.espeak_SetSynthCallback(_Engine.callback)
         _Engine.lib, _Engine.sample_rate, _Engine.source = lib, int(rate), source
+        _Engine.path, _Engine.data = library_path, data
         return lib
     detail = f" ({'; '.join(errors)})" if errors else ""
     raise UserError("espeak-ng is not available: install the add-on with its bundled wheels "
                     f"(espeakng-loader) or the system package libespeak-ng{detail}")
 
 
+def _unload(handle) -> None:
+    import _ctypes  # noqa: PLC0415 - the platform's dlclose / FreeLibrary
+    (_ctypes.FreeLibrary if os.name == "nt" else _ctypes.dlclose)(handle)
+
+
+@contextlib.contextmanager
+def _fresh_engine():
+    """libespeak-ng in its initial state for one synthesis (module docstring, "Repeatability")."""
+    shared = _load_library()
+    if _Engine.source != "wheel":
+        yield shared
+        return
+    folder = tempfile.mkdtemp(prefix="fh-espeak-")
+    lib = None
+    try:
+        copy = os.path.join(folder, os.path.basename(_Engine.path))
+        shutil.copyfile(_Engine.path, copy)
+        lib = ctypes.CDLL(copy)
+        _declare(lib)
+        if lib.espeak_Initialize(_AUDIO_OUTPUT_SYNCHRONOUS, 0, _Engine.data, _INITIALIZE_PHONEME_EVENTS) <= 0:
+            raise UserError("espeak-ng could not be initialised for this synthesis")
+        callback = _CALLBACK(_collect)
+        lib.espeak_SetSynthCallback(callback)
+        yield lib
+        lib.espeak_Terminate()
+        del callback
+    finally:
+        if lib is not None:
+            handle = lib._handle
+            del lib
+            _unload(handle)
+        shutil.rmtree(folder, ignore_errors=True)
+
+
 def _declare(lib) -> None:
+    lib.espeak_Terminate.argtypes = []
+    lib.espeak_Terminate.restype = ctypes.c_int
     lib.espeak_Initialize.argtypes = [ctypes.c_int, ctypes.c_int, ctypes.c_char_p, ctypes.c_int]
     lib.espeak_Initialize.restype = ctypes.c_int
     lib.espeak_SetSynthCallback.argtypes = [_CALLBACK]
@@ -230,6 +275,21 @@ def list_voices() -> list[VoiceInfo]:
     return voices
 
 
+_VOICE_NAMES: list[str] = []
+
+
+def voice_names() -> list[str]:
+    """Every name a voice can be chosen by (identifiers and languages, sorted), read once per session;
+    ``["en-us"]`` when espeak-ng is missing (a voice menu then offers the default only)."""
+    if not _VOICE_NAMES:
+        try:
+            voices = list_voices()
+            _VOICE_NAMES.extend(sorted({v.identifier for v in voices} | {lang for v in voices for lang in v.languages}))
+        except UserError:
+            _VOICE_NAMES.append("en-us")
+    return list(_VOICE_NAMES)
+
+
 def _check_range(label: str, value, bounds) -> int:
     try:
         number = int(round(float(value)))
@@ -257,8 +317,7 @@ def synthesize_raw(text: str, voice: str = "en-us", rate: float = 175, pitch: fl
     pitch = _check_range("pitch", pitch, PITCH_RANGE)
     volume = _check_range("volume", volume, VOLUME_RANGE)
     data = text.encode("utf-8") + b"\0"
-    with _LOCK:
-        lib = _load_library()
+    with _LOCK, _fresh_engine() as lib:
         _select_voice(lib, voice)
         lib.espeak_SetParameter(_RATE, rate, 0)
         lib.espeak_SetParameter(_PITCH, pitch, 0)

@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Timing comparisons between two phone or word sequences (tests and bench/speech.py).
 
-The oracle check of issue 4: synthesise with espeak-ng (known phone times), align that audio with
+The oracle check: synthesise with espeak-ng (known phone times), align that audio with
 pocketsphinx, and compare phone onsets. The two sides spell words differently (espeak's "can" is
 /k ae n/, the CMU dictionary's may be /k ah n/), so phones are paired by a Needleman-Wunsch alignment
 over the unified inventory, where a mismatch of the same viseme costs little.

@@ -17,7 +17,7 @@ import re
 import unicodedata
 from dataclasses import dataclass
 
-from ..errors import UserError
+from ..core.errors import UserError
 
 #: The 15 Oculus/Meta visemes with the names of the Oculus Lipsync reference (sil PP FF TH DD kk CH SS nn
 #: RR aa E ih oh ou), prefixed ``viseme_`` as shape keys.
@@ -175,7 +175,7 @@ def is_pause(name: str) -> bool:
 
 
 def viseme_of(name: str) -> str:
-    """Meta/Oculus viseme of a unified phone (published viseme table, shared/notes/published-facts.md)."""
+    """Meta/Oculus viseme of a unified phone (published viseme table, presets/SOURCES.md)."""
     return PHONES[name].viseme
 
 

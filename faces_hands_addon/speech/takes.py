@@ -19,14 +19,17 @@ from dataclasses import dataclass
 from typing import Callable
 
 from ..anim import TrackSet
-from ..errors import UserError
+from ..anim.timing import check_fps
+from ..core.errors import UserError
 from .align import align_audio
+from .audio import MAX_TAKE_SECONDS, audio_header
 from .articulation import TargetSet, load_articulation, load_viseme_targets
 from .coarticulation import coarticulate
 from .tts import synthesize
 from .utterance import Utterance
 
 TARGETS = ("muscles", "visemes")
+MAX_TEXT_CHARS = 400_000
 
 Progress = Callable[[float, str], None]
 
@@ -52,21 +55,43 @@ def target_set(target: str, preset_path: str | os.PathLike | None = None) -> Tar
     return load_articulation(preset_path) if target == "muscles" else load_viseme_targets(preset_path)
 
 
-def _check_fps(fps: float) -> float:
-    fps = float(fps)
-    if not (1.0 <= fps <= 1000.0):
-        raise UserError(f"frame rate {fps} is outside 1..1000 fps")
-    return fps
-
-
 def take_from_utterance(utterance: Utterance, *, fps: float, target: str = "muscles",
                         preset_path: str | os.PathLike | None = None) -> SpeechTake:
     """Coarticulate an existing utterance (3.1.3) for ``target``."""
-    fps = _check_fps(fps)
+    fps = check_fps(fps)
     targets = target_set(target, preset_path)
     result = coarticulate(utterance, targets, fps=fps)
     return SpeechTake(utterance=utterance, tracks=result.tracks, target=target, fps=fps,
                       ranges=dict(targets.ranges))
+
+
+def _take(make_utterance, first_message: str, fps: float, target: str, preset_path, progress) -> SpeechTake:
+    """Check the cheap things first (preset, fps), then the slow part, then coarticulate."""
+    target_set(target, preset_path)  # fail on a bad preset before the slow part
+    check_fps(fps)
+    if progress:
+        progress(0.05, first_message)
+    utterance = make_utterance()
+    if progress:
+        progress(0.7, "coarticulating")
+    take = take_from_utterance(utterance, fps=fps, target=target, preset_path=preset_path)
+    if progress:
+        progress(0.9, "tracks ready")
+    return take
+
+
+def estimated_seconds(text: str, rate: float) -> float:
+    """How long ``text`` takes to say at ``rate`` words per minute, from its word count (within ~20 % of
+    espeak-ng for English prose); cheap enough to check before synthesising."""
+    return len(str(text).split()) / max(float(rate), 1.0) * 60.0
+
+
+def check_text_length(text: str, rate: float) -> None:
+    """Refuse a text whose take would pass ``MAX_TAKE_SECONDS`` before any synthesis."""
+    seconds = estimated_seconds(text, rate)
+    if seconds > MAX_TAKE_SECONDS or len(str(text)) > MAX_TEXT_CHARS:
+        raise UserError(f"the text is {len(str(text))} characters, about {seconds / 60:.0f} minutes of speech; one "
+                        f"take may be at most {MAX_TAKE_SECONDS / 60:.0f} minutes: split it into takes")
 
 
 def take_from_text(text: str, *, voice: str = "en-us", rate: float = 175, pitch: float = 50,
@@ -74,17 +99,9 @@ def take_from_text(text: str, *, voice: str = "en-us", rate: float = 175, pitch:
                    preset_path: str | os.PathLike | None = None,
                    progress: Progress | None = None) -> SpeechTake:
     """Text -> espeak-ng speech -> coarticulated tracks (the MARY + MEDUSA pipeline of 4.3.4)."""
-    target_set(target, preset_path)  # fail on a bad preset before the slow part
-    _check_fps(fps)
-    if progress:
-        progress(0.05, "synthesising speech")
-    utterance = synthesize(text, voice=voice, rate=rate, pitch=pitch, volume=volume)
-    if progress:
-        progress(0.7, "coarticulating")
-    take = take_from_utterance(utterance, fps=fps, target=target, preset_path=preset_path)
-    if progress:
-        progress(0.9, "tracks ready")
-    return take
+    check_text_length(text, rate)
+    return _take(lambda: synthesize(text, voice=voice, rate=rate, pitch=pitch, volume=volume),
+                 "synthesising speech", fps, target, preset_path, progress)
 
 
 def take_from_audio(audio_path: str | os.PathLike, transcript: str | None, *, fps: float = 24.0,
@@ -92,14 +109,7 @@ def take_from_audio(audio_path: str | os.PathLike, transcript: str | None, *, fp
                     preset_path: str | os.PathLike | None = None,
                     progress: Progress | None = None) -> SpeechTake:
     """Recorded audio (+ transcript) -> forced alignment -> coarticulated tracks."""
-    target_set(target, preset_path)
-    _check_fps(fps)
-    if progress:
-        progress(0.05, "aligning audio to the transcript" if transcript else "recognising phones")
-    utterance = align_audio(audio_path, transcript or None, language=language)
-    if progress:
-        progress(0.7, "coarticulating")
-    take = take_from_utterance(utterance, fps=fps, target=target, preset_path=preset_path)
-    if progress:
-        progress(0.9, "tracks ready")
-    return take
+    audio_header(audio_path)    # the length limit, from the header, before anything is decoded
+    return _take(lambda: align_audio(audio_path, transcript or None, language=language),
+                 "aligning audio to the transcript" if transcript else "recognising phones",
+                 fps, target, preset_path, progress)

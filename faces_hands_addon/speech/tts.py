@@ -23,7 +23,7 @@ import unicodedata
 
 import numpy as np
 
-from ..errors import UserError
+from ..core.errors import UserError
 from . import espeak
 from .emoticons import extract_emoticons
 from .phonemes import SILENCE, from_espeak, from_ipa, split_stress

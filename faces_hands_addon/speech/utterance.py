@@ -244,24 +244,11 @@ class WordDraft:
     ends_phrase: bool = False
 
 
-def assemble_utterance(*, text: str, language: str, samples: np.ndarray, sample_rate: int,
-                       phones: list[Phone], words: list[WordDraft], emotions: list[EmotionTag],
-                       pitch: PitchContour, source: str, warnings: list[str]) -> Utterance:
-    """Derive words, syllables, accents, phrases, sentences and pauses from timed phones.
-
-    ``phones`` must be in time order and tile the audio; ``words[k].phones`` are indices into it.
-    A phrase ends at a word marked ``ends_phrase`` and at every sentence end."""
-    phones = list(phones)
-    words = [w for w in words if w.phones]
-    # words in time order, phones know their word
-    words.sort(key=lambda w: w.phones[0])
-    for k, draft in enumerate(words):
-        for i in draft.phones:
-            phones[i] = replace(phones[i], word=k)
-
+def _syllables(phones: list[Phone], words: list[WordDraft], function_flags: list[bool]):
+    """Syllables of every word (stress from its vowel; accented = primary stress on a content word); the
+    phones learn their syllable."""
     syllables: list[Syllable] = []
     word_syllables: list[tuple[int, ...]] = []
-    function_flags = [is_function_word(text[w.text_start:w.text_end], language) for w in words]
     for k, draft in enumerate(words):
         own = []
         for group in _syllabify(draft.phones, phones):
@@ -274,48 +261,37 @@ def assemble_utterance(*, text: str, language: str, samples: np.ndarray, sample_
                                       stress, stress == 1 and not function_flags[k]))
             own.append(index)
         word_syllables.append(tuple(own))
+    return syllables, word_syllables
 
-    # sentences and phrases
-    sentence_ids = sorted({w.sentence for w in words})
-    sentence_of = {s: n for n, s in enumerate(sentence_ids)}
-    phrase_of_word: list[int] = []
-    phrase_bounds: list[tuple[int, int]] = []
-    first = 0
+
+def _phrase_bounds(words: list[WordDraft]) -> list[tuple[int, int]]:
+    """(first word, last word) of every phrase: a phrase ends at a word marked ``ends_phrase`` and at every
+    sentence end."""
+    bounds, first = [], 0
     for k, draft in enumerate(words):
         last_in_sentence = k + 1 == len(words) or words[k + 1].sentence != draft.sentence
         if draft.ends_phrase or last_in_sentence:
-            phrase_bounds.append((first, k))
+            bounds.append((first, k))
             first = k + 1
-    for p, (a, b) in enumerate(phrase_bounds):
-        phrase_of_word.extend([p] * (b - a + 1))
+    return bounds
 
-    def word_start(k):
-        return phones[words[k].phones[0]].start
 
-    def word_end(k):
-        return phones[words[k].phones[-1]].end
-
-    final_words = [Word(text[w.text_start:w.text_end], w.text_start, w.text_end, word_start(k),
-                        word_end(k), tuple(w.phones), word_syllables[k], sentence_of[w.sentence],
-                        phrase_of_word[k], function_flags[k]) for k, w in enumerate(words)]
-
-    phrases = []
-    for p, (a, b) in enumerate(phrase_bounds):
-        next_start = word_start(b + 1) if b + 1 < len(words) else len(samples) / sample_rate
-        phrases.append(Phrase(word_start(a), word_end(b), a, b, final_words[a].sentence,
-                              max(0.0, next_start - word_end(b))))
-
+def _sentences(text: str, language: str, final_words: list[Word], count: int) -> list[Sentence]:
     sentences = []
     members_of: dict[int, list[int]] = {}
     for k, w in enumerate(final_words):
         members_of.setdefault(w.sentence, []).append(k)
-    for n in range(len(sentence_ids)):
+    for n in range(count):
         a, b = members_of[n][0], members_of[n][-1]
         text_end = final_words[b + 1].text_start if b + 1 < len(final_words) else len(text)
         trailing = text[final_words[b].text_end:text_end]
         sentences.append(Sentence(sentence_kind(trailing, language), final_words[a].text_start,
-                                  text_end, word_start(a), word_end(b), a, b))
+                                  text_end, final_words[a].start, final_words[b].end, a, b))
+    return sentences
 
+
+def _pauses(phones: list[Phone], final_words: list[Word]) -> list[Pause]:
+    """Every pause phone, classified by what it separates (leading, word, phrase, sentence, trailing)."""
     pauses = []
     word_ends = np.array([w.end for w in final_words])
     word_starts = np.array([w.start for w in final_words])
@@ -335,7 +311,48 @@ def assemble_utterance(*, text: str, language: str, samples: np.ndarray, sample_
         else:
             kind = "word"
         pauses.append(Pause(ph.start, ph.duration, kind))
+    return pauses
 
+
+def assemble_utterance(*, text: str, language: str, samples: np.ndarray, sample_rate: int,
+                       phones: list[Phone], words: list[WordDraft], emotions: list[EmotionTag],
+                       pitch: PitchContour, source: str, warnings: list[str]) -> Utterance:
+    """Derive words, syllables, accents, phrases, sentences and pauses from timed phones.
+
+    ``phones`` must be in time order and tile the audio; ``words[k].phones`` are indices into it.
+    A phrase ends at a word marked ``ends_phrase`` and at every sentence end."""
+    phones = list(phones)
+    words = [w for w in words if w.phones]
+    # words in time order, phones know their word
+    words.sort(key=lambda w: w.phones[0])
+    for k, draft in enumerate(words):
+        for i in draft.phones:
+            phones[i] = replace(phones[i], word=k)
+    function_flags = [is_function_word(text[w.text_start:w.text_end], language) for w in words]
+    syllables, word_syllables = _syllables(phones, words, function_flags)
+    sentence_ids = sorted({w.sentence for w in words})
+    sentence_of = {s: n for n, s in enumerate(sentence_ids)}
+    phrase_bounds = _phrase_bounds(words)
+    phrase_of_word: list[int] = []
+    for p, (a, b) in enumerate(phrase_bounds):
+        phrase_of_word.extend([p] * (b - a + 1))
+
+    def word_start(k):
+        return phones[words[k].phones[0]].start
+
+    def word_end(k):
+        return phones[words[k].phones[-1]].end
+
+    final_words = [Word(text[w.text_start:w.text_end], w.text_start, w.text_end, word_start(k),
+                        word_end(k), tuple(w.phones), word_syllables[k], sentence_of[w.sentence],
+                        phrase_of_word[k], function_flags[k]) for k, w in enumerate(words)]
+    phrases = []
+    for p, (a, b) in enumerate(phrase_bounds):
+        next_start = word_start(b + 1) if b + 1 < len(words) else len(samples) / sample_rate
+        phrases.append(Phrase(word_start(a), word_end(b), a, b, final_words[a].sentence,
+                              max(0.0, next_start - word_end(b))))
+    sentences = _sentences(text, language, final_words, len(sentence_ids))
+    pauses = _pauses(phones, final_words)
     return Utterance(text=text, language=language, samples=samples, sample_rate=sample_rate,
                      phones=phones, syllables=syllables, words=final_words, phrases=phrases,
                      sentences=sentences, pauses=pauses, emotions=_emotion_times(emotions, final_words),

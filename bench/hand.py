@@ -1,0 +1,70 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Hand simulation speed (thesis 6.2.4: "over 60 fps ... approximately 1500 nodes and 4500 springs" on a
+2.4 GHz Opteron in 2003): simulated frames per second of the default hand on one core.
+
+A *frame* is everything the rig does per animation frame: mix the control layers, the pseudo muscles'
+substeps (Eqs. 6.1-6.9), forward kinematics, the geometric muscles' bulge, the skin's attachment targets,
+the mass-spring substeps and the output pose (skin positions, muscle surfaces, 21 bone transforms), while
+the contractions change every frame (a motion preset, Hermite-interpolated). Frames are 1/30 s (and 1/60 s
+for comparison with the thesis' real-time rate). Ends with one ``RESULT fps=...`` line (1/30 s frames).
+
+Run: ``make bench`` (installed extension), or ``FH_TEST_FROM_SOURCE=1 python bench/hand.py`` (working tree).
+"""
+from __future__ import annotations
+
+import os
+
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")          # one core
+
+import sys
+import time
+from pathlib import Path
+
+if os.environ.get("FH_TEST_FROM_SOURCE") == "1":
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+else:
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import _harness  # noqa: E402,F401
+
+import numpy as np  # noqa: E402
+
+from faces_hands_addon.hand import motion  # noqa: E402
+from faces_hands_addon.hand.rig import build_hand_rig  # noqa: E402
+
+THESIS_FPS = 60.0
+
+
+def simulated_fps(rig, dt: float, repeats: int = 3) -> tuple[float, float]:
+    """Best-of-``repeats`` frames per second over the 'showcase' motion at frame length ``dt``; ms per frame."""
+    times, table = motion.motion_table("showcase", rig.muscle_names, 1.0 / dt)
+    layers = [{"ctrl": dict(zip(rig.muscle_names, row))} for row in table]
+    best = np.inf
+    for _ in range(repeats):
+        rig.reset()
+        started = time.perf_counter()
+        for values in layers:
+            rig.step(values, dt)
+        best = min(best, (time.perf_counter() - started) / len(layers))
+    return 1.0 / best, best * 1000.0
+
+
+def main() -> None:
+    started = time.perf_counter()
+    rig = build_hand_rig()
+    build_s = time.perf_counter() - started
+    net = rig.hand.network
+    print(f"hand: {net.node_count} nodes, {net.springs.count} springs, {len(rig.muscle_names)} pseudo muscles, "
+          f"{len(rig.geometric.names)} geometric muscles; built in {build_s:.1f} s")
+    fps30, ms30 = simulated_fps(rig, 1 / 30)
+    print(f"1/30 s frames: {rig.hand.integrator.substeps_for(1 / 30)} skin substeps, {ms30:.2f} ms per frame, "
+          f"{fps30:.0f} simulated frames/s")
+    fps60, ms60 = simulated_fps(rig, 1 / 60)
+    print(f"1/60 s frames: {rig.hand.integrator.substeps_for(1 / 60)} skin substeps, {ms60:.2f} ms per frame, "
+          f"{fps60:.0f} simulated frames/s ({fps60 / THESIS_FPS:.1f}x the thesis' 60 fps)")
+    print(f"RESULT fps={fps30:.0f} fps_60hz={fps60:.0f} ms_per_frame={ms30:.3f} nodes={net.node_count} "
+          f"springs={net.springs.count} thesis_ratio={fps60 / THESIS_FPS:.1f}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,82 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""What each frame of an animation *means* in named targets, read from its controls rather than its shape.
+
+Every named target (an ARKit shape, a viseme, an emotion) is a set of control values (``presets/
+expressions``), and every frame of a rig's animation is a sum of control layers (``layers``: the artist's
+``ctrl``, ``speech``, ``behavior``, ``emotion``). A frame's *semantic* weights are the non-negative weights
+of the targets whose control values add up to the frame's (bounded least squares in control space, each
+control measured in its range so jaw and lids count alike). The speech layer is the Cohen-Massaro weighted
+average of articulation targets (thesis 3.1.3, Eq. 3.1: sum_k D_k T_k / sum_k D_k), so the visemes explain
+it; the other layers are explained by the remaining targets (ARKit, emotions). These weights keep the
+meaning a retargeted character needs (a /p/ is ``viseme_PP``, never a mix of frowns that happens to look
+alike on this one head) and follow the controls on time; ``weights.WeightSolver`` then lets the simulated
+shape refine them, held near them by a prior.
+"""
+from __future__ import annotations
+
+from typing import Mapping
+
+import numpy as np
+
+from ..core.controls import ControlSpec, clamp_controls
+from .layers import BASE_LAYER, LayerTable
+from .weights import bounded_nnls
+
+__all__ = ["SPEECH_LAYER", "is_viseme", "control_matrix", "semantic_weights"]
+
+SPEECH_LAYER = "speech"
+
+
+def is_viseme(name: str) -> bool:
+    return name.startswith("viseme_")
+
+
+def _spans(controls, specs: Mapping[str, ControlSpec]) -> np.ndarray:
+    return np.array([max(specs[c].maximum - specs[c].minimum, 1e-9) for c in controls])
+
+
+def control_matrix(targets: Mapping[str, Mapping[str, float]], specs: Mapping[str, ControlSpec],
+                   controls) -> np.ndarray:
+    """(T, C): each target's control offsets from the defaults, in units of each control's range."""
+    defaults = np.array([specs[c].default for c in controls])
+    rows = []
+    for expression in targets.values():
+        values = clamp_controls(expression, specs, strict=True)
+        rows.append(np.array([values.get(c, specs[c].default) for c in controls]) - defaults)
+    return (np.array(rows) if rows else np.zeros((0, len(controls)))) / _spans(controls, specs)
+
+
+def _layer_offsets(table: LayerTable, specs: Mapping[str, ControlSpec]) -> tuple[np.ndarray, np.ndarray]:
+    """(speech, other): per frame, the speech layer and the sum of the other layers minus the defaults, both
+    in units of each control's range."""
+    spans = _spans(table.controls, specs)
+    defaults = np.array([specs[c].default for c in table.controls])
+    zero = np.zeros((len(table), len(table.controls)))
+    speech = table.values.get(SPEECH_LAYER, zero)
+    other = sum((values - (defaults if layer == BASE_LAYER else 0.0)
+                 for layer, values in table.values.items() if layer != SPEECH_LAYER), zero)
+    return speech / spans, other / spans
+
+
+def _fit(matrix: np.ndarray, frames: np.ndarray) -> np.ndarray:
+    if not len(matrix):
+        return np.zeros((len(frames), 0))
+    return np.stack([bounded_nnls(matrix.T, row) if np.any(row) else np.zeros(len(matrix)) for row in frames])
+
+
+def semantic_weights(table: LayerTable, targets: Mapping[str, Mapping[str, float]],
+                     specs: Mapping[str, ControlSpec]) -> np.ndarray:
+    """(F, T) semantic weights in [0, 1] of ``targets`` (name -> control values) for every frame of
+    ``table``: visemes from the speech layer, the other targets from the other layers (module docstring).
+    Without visemes among the targets, all targets explain all layers."""
+    names = list(targets)
+    matrix = control_matrix(targets, specs, table.controls)
+    speech, other = _layer_offsets(table, specs)
+    visemes = np.array([is_viseme(n) for n in names], bool)
+    weights = np.zeros((len(table), len(names)))
+    if visemes.any() and (~visemes).any():
+        weights[:, visemes] = _fit(matrix[visemes], speech)
+        weights[:, ~visemes] = _fit(matrix[~visemes], other)
+    else:
+        weights[:] = _fit(matrix, speech + other)
+    return weights

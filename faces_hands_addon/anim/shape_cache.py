@@ -1,0 +1,140 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Settled static shapes kept on disk, so a rig's expression targets are simulated once, not on every take.
+
+A settled shape (``Rig.settled``: from rest, with fixed control values, for a fixed time) depends only on
+the rig's stored data, the control values and the settle time and step: ``baking`` settles every shape from
+the rest state. Its key is a SHA-256 of exactly those (the rig's ``identity`` names its stored data), plus
+the cache format, a fingerprint of the engine's code and shipped presets (any change to the simulation
+makes new keys) and numpy's version; a hit returns the very arrays the
+simulation produced (stored losslessly as ``.npz`` without pickles), so an animation baked from cached
+targets is byte-identical to one baked from fresh ones. The folder is the extension's user folder (the
+operators hand it in); the oldest entries go when it passes ``MAX_BYTES``.
+"""
+from __future__ import annotations
+
+import functools
+import hashlib
+import json
+import os
+import tempfile
+import zipfile
+from pathlib import Path
+from typing import Callable, Mapping
+
+import numpy as np
+
+from ..core.presets import SHIPPED_FOLDER, user_folder
+from ..core.rig import Pose
+
+__all__ = ["ShapeCache", "FORMAT", "MAX_BYTES", "engine_fingerprint"]
+
+FORMAT = 1
+MAX_BYTES = 512 * 1024 * 1024
+_ENTRY_LIMIT = 64 * 1024 * 1024      # one shape's file; anything larger is not ours
+
+
+def engine_fingerprint() -> str:
+    """SHA-256 over the engine's Python files and shipped presets (hashed once) and the artist's preset
+    overrides (hashed on every call: an edited preset makes new keys at once)."""
+    digest = hashlib.sha256(_shipped_fingerprint().encode("ascii"))
+    user = user_folder()
+    if user is not None and Path(user).is_dir():
+        _hash_tree(digest, Path(user))
+    return digest.hexdigest()[:32]
+
+
+def _hash_tree(digest, root: Path) -> None:
+    for path in sorted(p for p in root.rglob("*") if p.suffix in (".py", ".json") and p.is_file()):
+        digest.update(path.relative_to(root).as_posix().encode("utf-8") + b"\0" + path.read_bytes())
+
+
+@functools.lru_cache(maxsize=1)
+def _shipped_fingerprint() -> str:
+    digest = hashlib.sha256()
+    for root in (Path(__file__).resolve().parents[1], Path(SHIPPED_FOLDER)):
+        _hash_tree(digest, root)
+    return digest.hexdigest()
+
+
+class ShapeCache:
+    """A folder of settled shapes; ``ShapeCache(None)`` caches nothing (every call computes)."""
+
+    def __init__(self, folder: str | os.PathLike | None):
+        self.folder = Path(folder) if folder else None
+        self.fingerprint = engine_fingerprint() if self.folder else ""
+        self.hits = self.misses = 0
+
+    def key(self, identity: str, values: Mapping, settle_time: float, dt: float) -> str:
+        blob = json.dumps({"format": FORMAT, "engine": self.fingerprint, "numpy": np.__version__,
+                           "rig": identity, "values": _plain(values), "time": settle_time, "dt": dt},
+                          sort_keys=True, separators=(",", ":"))
+        return hashlib.sha256(blob.encode("utf-8")).hexdigest()[:40]
+
+    def settled(self, rig, values: Mapping, settle_time: float, dt: float, compute: Callable[[], Pose]) -> Pose:
+        """The cached pose for (rig, values, time, step), or ``compute()`` stored for next time."""
+        identity = getattr(rig, "identity", "")
+        if self.folder is None or not identity:
+            return compute()
+        path = self.folder / f"{self.key(identity, values, settle_time, dt)}.npz"
+        pose = _read(path)
+        if pose is not None:
+            self.hits += 1
+            return pose
+        self.misses += 1
+        pose = compute()
+        _write(path, pose)
+        self._prune()
+        return pose
+
+    def _prune(self) -> None:
+        entries = sorted(self.folder.glob("*.npz"), key=lambda p: p.stat().st_mtime)
+        total = sum(p.stat().st_size for p in entries)
+        for entry in entries:
+            if total <= MAX_BYTES:
+                break
+            total -= entry.stat().st_size
+            entry.unlink(missing_ok=True)
+
+
+def _plain(values):
+    if isinstance(values, Mapping):
+        return {str(k): _plain(v) for k, v in values.items()}
+    return float(values)
+
+
+def _read(path: Path) -> Pose | None:
+    """The pose stored at ``path``, or None when it is missing or not a sound entry (then it is recomputed)."""
+    try:
+        if not path.is_file() or path.stat().st_size > _ENTRY_LIMIT:
+            return None
+        with np.load(path, allow_pickle=False) as data:
+            pose = Pose()
+            for name in data.files:
+                group, _, role = name.partition("/")
+                array = data[name]
+                if not np.all(np.isfinite(array)):
+                    return None
+                (pose.positions if group == "positions" else pose.transforms)[role] = array
+            return pose
+    except (OSError, ValueError, zipfile.BadZipFile, KeyError, EOFError):
+        return None
+
+
+def _write(path: Path, pose: Pose) -> None:
+    """Store ``pose`` at ``path`` (written aside, then renamed: a reader never sees half a file)."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        arrays = {f"positions/{role}": a for role, a in pose.positions.items()}
+        arrays.update({f"transforms/{role}": a for role, a in pose.transforms.items()})
+        handle, tmp = tempfile.mkstemp(prefix=".fh-shape-", suffix=".npz", dir=path.parent)
+    except OSError:
+        return                                   # a read-only or full cache folder only costs time
+    try:
+        with os.fdopen(handle, "wb") as stream:
+            np.savez(stream, **arrays)
+        os.replace(tmp, path)
+    except OSError:
+        pass
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)

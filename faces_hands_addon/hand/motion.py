@@ -1,0 +1,94 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Poses and motions of the hand (thesis 6.2.1 "Animation": "contraction values are specified as key frames
+with an arbitrary temporal distribution. During simulation, the contraction values are interpolated using a
+smooth spline function (Hermite), which is evaluated at discrete points in time").
+
+Poses (``presets/hand/poses.json``) are contraction values; a motion is a list of ``[time, pose]`` keys. Between
+keys every contraction follows a cubic Hermite segment with Catmull-Rom tangents (zero at the ends),
+clamped to [0, 1]; the same keys become Bezier F-curves in Blender (auto-clamped handles, also cubic).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.errors import UserError
+from .presets import poses_preset
+
+__all__ = ["pose_names", "motion_names", "pose_contractions", "motion_keys", "hermite", "motion_table",
+           "checked_contractions"]
+
+
+def checked_contractions(values: dict, muscles: list[str], where: str) -> dict[str, float]:
+    """Contractions by muscle name, every name known and every value in [0, 1] (a clear UserError otherwise)."""
+    out = {}
+    for name, value in values.items():
+        if name not in muscles:
+            raise UserError(f"{where}: unknown hand muscle {name!r}")
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
+            raise UserError(f"{where}: contraction {name} must be a number in [0, 1], not {value!r}")
+        if not 0.0 <= value <= 1.0:
+            raise UserError(f"{where}: contraction {name} = {value} is outside [0, 1]")
+        out[name] = float(value)
+    return out
+
+
+def pose_names() -> list[str]:
+    return sorted(poses_preset()["poses"])
+
+
+def motion_names() -> list[str]:
+    return sorted(poses_preset().get("motions", {}))
+
+
+def pose_contractions(name: str, muscles: list[str]) -> dict[str, float]:
+    poses = poses_preset()["poses"]
+    if name not in poses:
+        raise UserError(f"unknown hand pose {name!r}; the poses are {', '.join(sorted(poses))}")
+    return checked_contractions(poses[name].get("contractions", {}), muscles, f"hand pose {name!r}")
+
+
+def motion_keys(name: str, muscles: list[str]) -> tuple[np.ndarray, list[dict[str, float]]]:
+    """Key times (s) and the contractions at each key of a motion (or of a single pose held for 1 s)."""
+    doc = poses_preset()
+    motions = doc.get("motions", {})
+    if name in doc["poses"] and name not in motions:
+        pose = pose_contractions(name, muscles)
+        return np.array([0.0, 0.5, 1.5]), [{}, pose, pose]
+    if name not in motions:
+        raise UserError(f"unknown hand motion or pose {name!r}; motions: {', '.join(sorted(motions))}; poses: "
+                        f"{', '.join(sorted(doc['poses']))}")
+    keys = motions[name].get("keys", [])
+    times, poses = [], []
+    for key in keys:
+        if not (isinstance(key, list) and len(key) == 2 and isinstance(key[0], (int, float)) and isinstance(key[1], str)):
+            raise UserError(f"hand motion {name!r}: every key must be [seconds, pose name], got {key!r}")
+        times.append(float(key[0]))
+        poses.append(pose_contractions(key[1], muscles))
+    if len(times) < 2 or np.any(np.diff(times) <= 0):
+        raise UserError(f"hand motion {name!r}: needs at least two keys with increasing times")
+    return np.array(times), poses
+
+
+def hermite(times: np.ndarray, values: np.ndarray, at: np.ndarray) -> np.ndarray:
+    """Cubic Hermite interpolation of ``values`` (K, C) keyed at ``times`` (K,), Catmull-Rom tangents with zero
+    tangents at the first and last key, evaluated at ``at`` and clamped to [0, 1]."""
+    times, values, at = np.asarray(times, float), np.asarray(values, float), np.asarray(at, float)
+    tangents = np.zeros_like(values)
+    if len(times) > 2:
+        tangents[1:-1] = (values[2:] - values[:-2]) / (times[2:] - times[:-2])[:, None]
+    k = np.clip(np.searchsorted(times, at, side="right") - 1, 0, len(times) - 2)
+    span = times[k + 1] - times[k]
+    u = np.clip((at - times[k]) / span, 0.0, 1.0)[:, None]
+    h00, h10 = 2 * u ** 3 - 3 * u ** 2 + 1, u ** 3 - 2 * u ** 2 + u
+    h01, h11 = -2 * u ** 3 + 3 * u ** 2, u ** 3 - u ** 2
+    out = (h00 * values[k] + h10 * span[:, None] * tangents[k] + h01 * values[k + 1]
+           + h11 * span[:, None] * tangents[k + 1])
+    return np.clip(out, 0.0, 1.0)
+
+
+def motion_table(name: str, muscles: list[str], fps: float) -> tuple[np.ndarray, np.ndarray]:
+    """Frame times and the (frames, muscles) contractions of a motion sampled at ``fps``."""
+    times, poses = motion_keys(name, muscles)
+    values = np.array([[pose.get(m, 0.0) for m in muscles] for pose in poses])
+    at = np.arange(0.0, times[-1] + 1e-9, 1.0 / fps)
+    return at, hermite(times, values, at)

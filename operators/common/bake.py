@@ -1,0 +1,158 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The bake of any rig as a :class:`.jobs.Job`: the engine's generators (``anim.baking``) compute shapes
+step by step without touching the scene, ``commit`` writes them as shape keys (``shape_keys``). Cancelling
+(ESC, an error) before the commit leaves the scene exactly as it was.
+
+Animation bakes first sample the control layers of the frame range into a table (``controls.
+sample_layers``), so the simulation never calls back into Blender.
+"""
+from __future__ import annotations
+
+import itertools
+
+import bpy
+import numpy as np
+
+from ...faces_hands_addon.anim import baking, semantic, weights
+from ...faces_hands_addon.core.errors import UserError
+from . import controls, shape_keys
+from .jobs import Job
+from .paths import shape_cache
+from .rig_store import get_rig, output_to_local, parts
+from .timing import frame_duration
+
+__all__ = ["MODES", "MAX_FRAMES", "BakeJob", "WeightsBakeJob", "animated_table"]
+
+MODES = ("BASIS", "EXPRESSIONS", "ANIMATION")
+MAX_FRAMES = 5000
+FRAME_BLOCK = 64            # frames simulated and fitted per step of the weights bake
+
+
+def animated_table(obj, scene, specs):
+    """The layer table of the scene's frame range, or a UserError when nothing in it is animated (a bake of
+    a still face would write a take of nothing)."""
+    frames = shape_keys.frame_range(scene)
+    if len(frames) > MAX_FRAMES:
+        raise UserError(f"{len(frames)} frames is too long for one bake; bake at most {MAX_FRAMES} frames")
+    table = controls.sample_layers(obj, scene, specs, frames)
+    if not any(np.ptp(values, axis=0).max(initial=0.0) > 0 for values in table.values.values()):
+        raise UserError(f"nothing is animated between frames {frames[0]} and {frames[-1]}: key some controls "
+                        "(or put a speech take on the rig) before baking the animation")
+    return table
+
+
+class BakeJob(Job):
+    """Bake ``obj``'s rig in ``mode``; ``expressions`` (name -> partial control dict) for EXPRESSIONS."""
+
+    def __init__(self, context, obj, mode: str, expressions: dict | None = None):
+        if mode not in MODES:
+            raise UserError(f"unknown bake mode {mode!r}; use one of {', '.join(MODES)}")
+        self.obj_name, self.mode = obj.name, mode
+        self.rig = get_rig(obj)
+        self.shapes = []
+        specs = self.rig.control_specs()
+        if mode == "BASIS":
+            self.total, self.label = len(specs), "Baking muscle basis"
+            self.generator = baking.basis_shapes(self.rig, cache=shape_cache())
+        elif mode == "EXPRESSIONS":
+            expressions = dict(expressions or {})
+            if not expressions:
+                raise UserError("no expressions to bake; choose an expression set")
+            self.total, self.label = len(expressions), f"Baking {len(expressions)} expressions"
+            self.generator = baking.expression_shapes(self.rig, expressions, cache=shape_cache())
+        else:
+            table = animated_table(obj, context.scene, specs)
+            self.total, self.label = len(table), f"Baking {len(table)} frames"
+            self.generator = baking.animation_poses(self.rig, table, frame_duration(context.scene))
+
+    def step(self) -> float:
+        shape = next(self.generator, None)
+        if shape is None:
+            return 1.0
+        self.shapes.append(shape)
+        return min(len(self.shapes) / max(self.total, 1), 0.999)
+
+    def commit(self, context) -> str:
+        obj = bpy.data.objects[self.obj_name]
+        if self.mode == "ANIMATION":
+            shape_keys.remove_keys(obj, shape_keys.FRAME_PREFIX)
+            names = shape_keys.commit_animation(obj, self.shapes)
+        else:
+            names = shape_keys.commit_shapes(obj, self.shapes, self.rig.control_specs() if self.mode == "BASIS"
+                                             else None)
+        return f"Baked {len(names)} shape keys on '{obj.name}'"
+
+
+class WeightsBakeJob(Job):
+    """The animation as engine-ready weights (``anim.weights``): bake the fixed target set (name ->
+    expression) and the rig's corrective targets (its muscle basis, ``FH.<control>``), simulate the frame
+    range, fit every frame's pose with weights of the targets (held near the frame's semantic weights,
+    ``anim.semantic``) and then of the correctives, and write all targets once and the weights as F-curves
+    on every mesh of the rig."""
+
+    def __init__(self, context, obj, targets: dict, part_roles, correctives: bool = True):
+        self.obj_name = obj.name
+        self.rig = get_rig(obj)
+        specs = self.rig.control_specs()
+        self.table = animated_table(obj, context.scene, specs)
+        if not targets:
+            raise UserError("no targets to express the animation with; choose an expression set")
+        self.dt = frame_duration(context.scene)
+        self.count = len(targets) + (len(specs) if correctives else 0)
+        self.total = self.count + len(self.table)
+        self.label = f"Baking {len(self.table)} frames as weights of {self.count} targets"
+        cache = shape_cache()
+        shapes = baking.expression_shapes(self.rig, targets, cache=cache)
+        self.targets = itertools.chain(shapes, baking.basis_shapes(self.rig, cache=shape_cache())) if correctives else shapes
+        self.primary, self.shapes = len(targets), []
+        parts_now = parts(obj)
+        self.part_rest = {role: shape_keys.rest_vertices(parts_now[role]).astype(np.float64)
+                          for role in part_roles if role in parts_now}
+        self.to_local = output_to_local(obj)
+        self.prior = semantic.semantic_weights(self.table, targets, specs)   # what each frame means
+        self.solver = self.frames = None
+        self.weights, self.residual = [], []
+
+    def _local_stack(self, pose) -> np.ndarray:
+        skin = pose.positions["skin"].astype(np.float64) @ self.to_local[:3, :3].T + self.to_local[:3, 3]
+        return weights.stack_pose(skin, self.part_rest, pose.transforms)
+
+    def _start_frames(self) -> None:
+        rest = self._local_stack(self.rig.rest_pose())
+        sets = [self.shapes[:self.primary], self.shapes[self.primary:]]
+        bases = [weights.TargetBasis(tuple(s.name for s in shapes),
+                                     np.stack([self._local_stack(s.pose) - rest for s in shapes]))
+                 for shapes in sets if shapes]
+        self.solver, self.rest = weights.WeightSolver(*bases), rest
+        self.frames = baking.animation_poses(self.rig, self.table, self.dt)
+
+    def step(self) -> float:
+        if self.frames is None:
+            shape = next(self.targets, None)
+            if shape is None:
+                self._start_frames()
+            else:
+                self.shapes.append(shape)
+            return min(len(self.shapes) / self.total, 0.999)
+        block = [self._local_stack(shape.pose) - self.rest for shape in
+                 (next(self.frames, None) for _ in range(FRAME_BLOCK)) if shape is not None]
+        if block:
+            done = sum(len(w) for w in self.weights)
+            w, r = self.solver.solve_many(np.stack(block), self.prior[done:done + len(block)])
+            self.weights.append(w)
+            self.residual.append(r)
+        done = sum(len(w) for w in self.weights)
+        return 1.0 if done >= len(self.table) or not block else min((len(self.shapes) + done) / self.total, 0.999)
+
+    def fit(self) -> weights.WeightFit:
+        return weights.WeightFit(self.solver.names, np.concatenate(self.weights), np.concatenate(self.residual))
+
+    def commit(self, context) -> str:
+        obj = bpy.data.objects[self.obj_name]
+        fit = self.fit()
+        shape_keys.remove_keys(obj, shape_keys.FRAME_PREFIX)
+        names = shape_keys.commit_shapes(obj, self.shapes)
+        shape_keys.commit_weights(obj, names, self.table.frames, fit.weights)
+        median, p90, worst = fit.residual_mm()
+        return (f"Baked {len(self.table)} frames as weights of {len(names)} targets on '{obj.name}' "
+                f"(fit residual median {median:.2f} mm, p90 {p90:.2f} mm, max {worst:.2f} mm)")

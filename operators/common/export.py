@@ -1,0 +1,208 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""glTF / FBX export of a baked rig through Blender's own exporters.
+
+Only what the rig kind names goes out (a face: skin, eyes, teeth and tongue), with its shape keys (morph
+targets, names kept in glTF ``extras.targetNames``) and their animation (glTF ``weights`` channel) as one
+clip for all meshes; helpers (a face's skull, jaw and muscle display) stay behind. Internal shape keys never
+leave: the export works on temporary copies without the live simulation key and without muted keys (muted
+keys would add to the animation; glTF drops them, FBX would not), which carry the originals' names while
+the originals step aside; the scene is exactly as it was afterwards. Settings follow what was measured to
+keep shape keys and their animation (presets/SOURCES.md, "Speed and export facts"): no modifiers applied,
+no morph normals, the clip starting at 0 s (the first exported frame, where the take's audio starts): glTF
+slides it there, FBX copies get their keys moved there.
+"""
+from __future__ import annotations
+
+import contextlib
+from dataclasses import dataclass
+from pathlib import Path
+
+import bpy
+import numpy as np
+
+from ...faces_hands_addon.core.errors import UserError
+from ...faces_hands_addon.core.fbx_stamp import fix_creation_stamp
+from .blendfile import save_blend
+from .outputs import atomic_output, check_output_path
+from .poses import SIM_KEY
+from .rig_store import parts
+
+__all__ = ["SUFFIXES", "ExportOptions", "export_objects", "export_rig", "exported_keys", "save_or_export"]
+
+SUFFIXES = (".glb", ".fbx")
+ASIDE = ".fh-export-original"
+
+
+@dataclass(frozen=True)
+class ExportOptions:
+    """``clip``: the name of the one animation clip (default: the rig object's name); ``frame_range``:
+    (first, last) frame to export (default: the scene's); ``scale``: uniform scale of the exported rig;
+    ``selected_only``: only the rig's parts that are selected (the rig object itself always goes)."""
+    clip: str | None = None
+    frame_range: tuple[int, int] | None = None
+    scale: float = 1.0
+    selected_only: bool = False
+
+
+def export_objects(obj, roles, selected_only: bool = False) -> list:
+    """The rig object and its parts of ``roles`` (only the selected ones with ``selected_only``)."""
+    return [obj] + [part for role, part in parts(obj).items()
+                    if role in roles and (not selected_only or part.select_get())]
+
+
+def exported_keys(obj) -> list[str]:
+    """The shape keys of ``obj`` an export writes (not the reference key, the simulation key or muted keys)."""
+    key = getattr(obj.data, "shape_keys", None)
+    if key is None:
+        return []
+    return [b.name for b in key.key_blocks[1:] if b.name != SIM_KEY and not b.mute]
+
+
+def _shift_keys(action, frames: float) -> None:
+    """Move every key (and its handles) of ``action`` by ``frames``."""
+    for layer in action.layers:
+        for strip in layer.strips:
+            for bag in strip.channelbags:
+                for curve in bag.fcurves:
+                    points = curve.keyframe_points
+                    for attribute in ("co", "handle_left", "handle_right"):
+                        values = np.empty(2 * len(points))
+                        points.foreach_get(attribute, values)
+                        values[0::2] += frames
+                        points.foreach_set(attribute, values)
+                    curve.update()
+
+
+def _own_actions(copy, shift: float) -> list:
+    """Give the copy (object and shape keys) private copies of its actions, shifted by ``shift`` frames."""
+    made = []
+    key = getattr(copy.data, "shape_keys", None)
+    for owner in (copy, key):
+        anim = getattr(owner, "animation_data", None) if owner is not None else None
+        if anim is None or anim.action is None:
+            continue
+        slot = anim.action_slot.identifier if anim.action_slot else None
+        action = anim.action.copy()
+        anim.action = action
+        if slot is not None and anim.action_slot is None:
+            anim.action_slot = action.slots[slot]
+        _shift_keys(action, shift)
+        made.append(action)
+    return made
+
+
+@contextlib.contextmanager
+def _clean_copies(context, objects, scale: float, shift: float = 0.0):
+    """Copies of ``objects`` (same names, parenting, actions) without internal keys, in a temporary
+    collection; the originals are renamed aside meanwhile and get their names back afterwards. With
+    ``shift`` the copies animate from private actions moved by that many frames."""
+    collection = bpy.data.collections.new("FH Export")
+    context.scene.collection.children.link(collection)
+    originals = [(obj, obj.name, obj.data.name) for obj in objects]
+    copies, actions = {}, []
+    try:
+        for obj, name, data_name in originals:
+            copy = obj.copy()
+            copy.data = obj.data.copy()
+            obj.name, obj.data.name = name + ASIDE, data_name + ASIDE
+            copy.name, copy.data.name = name, data_name
+            collection.objects.link(copy)
+            copies[obj] = copy
+            if shift:
+                actions += _own_actions(copy, shift)
+        for obj, copy in copies.items():
+            copy.parent = copies.get(obj.parent, obj.parent)
+            for modifier in copy.modifiers:               # a skin follows the copied armature
+                if getattr(modifier, "object", None) in copies:
+                    modifier.object = copies[modifier.object]
+            key = getattr(copy.data, "shape_keys", None)
+            if key is not None:
+                for block in [b for b in key.key_blocks[1:] if b.name == SIM_KEY or b.mute]:
+                    copy.shape_key_remove(block)
+        root = copies[objects[0]]
+        root.parent = None
+        root.matrix_world = objects[0].matrix_world.copy()
+        root.scale = tuple(s * scale for s in root.scale)
+        context.view_layer.update()
+        yield list(copies.values())
+    finally:
+        for copy in copies.values():
+            data = copy.data
+            bpy.data.objects.remove(copy)
+            if data is not None and data.users == 0:
+                (bpy.data.armatures if isinstance(data, bpy.types.Armature) else bpy.data.meshes).remove(data)
+        bpy.data.collections.remove(collection)
+        for action in actions:
+            bpy.data.actions.remove(action)
+        for obj, name, data_name in originals:
+            obj.name, obj.data.name = name, data_name
+
+
+def _select_only(context, objects) -> list:
+    previous = [o for o in context.view_layer.objects if o.select_get()]
+    for other in previous:
+        other.select_set(False)
+    for obj in objects:
+        obj.hide_set(False)
+        obj.select_set(True)
+    context.view_layer.objects.active = objects[0]
+    return previous
+
+
+def _write(path: Path, clip: str) -> None:
+    if path.suffix.lower() == ".glb":
+        bpy.ops.export_scene.gltf(
+            filepath=str(path), export_format="GLB", use_selection=True, export_apply=False, export_morph=True,
+            export_morph_normal=False, export_animations=True, export_anim_slide_to_zero=True, export_yup=True,
+            export_animation_mode="ACTIVE_ACTIONS", export_nla_strips_merged_animation_name=clip,
+            export_frame_range=True, export_optimize_animation_size=False)
+    else:
+        bpy.ops.export_scene.fbx(
+            filepath=str(path), use_selection=True, object_types={"MESH"}, use_mesh_modifiers=False,
+            bake_anim=True, bake_anim_use_all_actions=False, bake_anim_use_nla_strips=False,
+            add_leaf_bones=False)
+        path.write_bytes(fix_creation_stamp(path.read_bytes()))   # same scene, same bytes
+
+
+def export_rig(context, obj, filepath: str, roles, options: ExportOptions = ExportOptions()) -> Path:
+    """Export the rig object ``obj`` and its parts of ``roles`` to ``filepath`` (.glb or .fbx)."""
+    out = check_output_path(bpy.path.abspath(filepath), SUFFIXES)
+    if not options.scale > 0:
+        raise UserError(f"the export scale must be greater than 0, not {options.scale}")
+    scene = context.scene
+    kept_range = scene.frame_start, scene.frame_end
+    previous = [o for o in context.view_layer.objects if o.select_get()]
+    active = context.view_layer.objects.active
+    try:
+        first, last = (int(f) for f in (options.frame_range or kept_range))
+        if last < first:
+            raise UserError(f"the export frame range {first}..{last} is empty")
+        # glTF slides the clip to 0 s itself; FBX writes frame/fps, so its copies move to start at frame 0
+        shift = -first if out.suffix.lower() == ".fbx" else 0
+        scene.frame_start, scene.frame_end = first + shift, last + shift
+        with _clean_copies(context, export_objects(obj, roles, options.selected_only), options.scale, shift) as copies, \
+                atomic_output(out) as tmp:
+            _select_only(context, copies)
+            _write(tmp, options.clip or obj.name)
+    except RuntimeError as error:
+        raise UserError(f"export to {out} failed: {error}") from None
+    finally:
+        scene.frame_start, scene.frame_end = kept_range
+        context.view_layer.update()
+        names = {o.name for o in previous}
+        for other in context.view_layer.objects:
+            if other is not None:
+                other.select_set(other.name in names)
+        if active is not None and active.name in context.view_layer.objects:
+            context.view_layer.objects.active = active
+    return out
+
+
+def save_or_export(context, obj, out: Path, roles, options: ExportOptions | None = None) -> Path:
+    """Write a command's result: the whole scene as ``.blend``, or ``obj`` and its parts of ``roles`` as
+    .glb/.fbx (one clip named after the file unless ``options`` say otherwise)."""
+    out = Path(out)
+    if out.suffix.lower() == ".blend":
+        save_blend(out)
+        return out
+    return export_rig(context, obj, str(out), roles, options or ExportOptions(clip=out.stem))

@@ -1,0 +1,106 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Write output files all-or-nothing: a failed or cancelled job leaves no half-written file behind.
+
+Every file moved into place is recorded in a ledger, so an interrupted command can say exactly what it
+wrote (``written_since``); ``refuse_collisions`` makes sure no output ever replaces one of the inputs."""
+from __future__ import annotations
+
+import contextlib
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+from ...faces_hands_addon.core.errors import UserError
+
+
+def check_output_path(path: str | os.PathLike, suffixes: tuple[str, ...]) -> Path:
+    """Validate an output path before any work starts (suffix known, not a directory)."""
+    out = Path(path).expanduser()
+    if out.suffix.lower() not in suffixes:
+        raise UserError(f"output {out} must end with one of {', '.join(suffixes)}")
+    if out.is_dir():
+        raise UserError(f"output {out} is a directory; give a file name")
+    if out.parent.exists() and not os.access(out.parent, os.W_OK):
+        raise UserError(f"cannot write into {out.parent}")
+    return out
+
+
+def check_output_dir(path: str | os.PathLike) -> Path:
+    """Validate an output folder before any work starts: it may exist (as a folder) or be creatable."""
+    out = Path(path).expanduser()
+    if out.exists() and not out.is_dir():
+        raise UserError(f"output folder {out} exists and is not a folder")
+    probe = out
+    while not probe.exists():
+        probe = probe.parent
+    if not probe.is_dir():
+        raise UserError(f"cannot create output folder {out}: {probe} is a file")
+    if not os.access(probe, os.W_OK):
+        raise UserError(f"cannot write into {probe}")
+    return out
+
+
+_LEDGER: list[Path] = []
+
+
+def ledger_mark() -> int:
+    """A bookmark in the ledger of written files (see ``written_since``)."""
+    return len(_LEDGER)
+
+
+def written_since(mark: int) -> list[Path]:
+    """The files moved into place since ``mark``, in the order they were written."""
+    return list(_LEDGER[mark:])
+
+
+def same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
+    """``a`` and ``b`` name the same file (same resolved path, or the same inode through a link)."""
+    a, b = Path(a).expanduser(), Path(b).expanduser()
+    if a.resolve() == b.resolve():
+        return True
+    try:
+        return a.exists() and b.exists() and os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def refuse_collisions(outputs: dict[str, Path], inputs: dict[str, Path]) -> None:
+    """Refuse when an output would replace an input or another output (``label -> path`` each)."""
+    named_outputs = [(label, path) for label, path in outputs.items() if path is not None]
+    for label, path in named_outputs:
+        for input_label, source in inputs.items():
+            if source is not None and same_file(path, source):
+                raise UserError(f"{label} {path} would replace the input {input_label} {source}; "
+                                "choose another output name")
+    for index, (label, path) in enumerate(named_outputs):
+        for other_label, other in named_outputs[:index]:
+            if same_file(path, other):
+                raise UserError(f"{label} and {other_label} are the same file {path}")
+
+
+@contextlib.contextmanager
+def atomic_output(final_path: str | os.PathLike):
+    """Yield a temporary path with the same suffix; move it to ``final_path`` only on success."""
+    final_path = Path(final_path)
+    tmp_dir = Path(tempfile.mkdtemp(prefix="fh-out-"))
+    tmp_path = tmp_dir / final_path.name
+    try:
+        yield tmp_path
+        if not tmp_path.exists():
+            raise RuntimeError(f"nothing was written to {tmp_path}")
+        final_path.parent.mkdir(parents=True, exist_ok=True)
+        shutil.move(str(tmp_path), str(final_path))
+        _LEDGER.append(final_path)
+    finally:
+        shutil.rmtree(tmp_dir, ignore_errors=True)
+
+
+def written(paths) -> str:
+    """One line per written file with its size, for the CLI's 'what I wrote' report."""
+    lines = []
+    for path in paths:
+        path = Path(path)
+        size = path.stat().st_size if path.exists() else 0
+        lines.append(f"wrote {path} ({size / 1024:.0f} KiB)")
+    return "\n".join(lines)

@@ -1,0 +1,115 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Where the extension keeps the artist's files: its user folder (never the installed extension's own
+folder, which an update replaces). Presets the artist edits live in ``<user folder>/presets`` with the
+same relative paths as the shipped ones (``face/muscles.json``); the engine prefers them."""
+from __future__ import annotations
+
+import os
+import shutil
+from pathlib import Path
+
+import bpy
+
+from ...faces_hands_addon.anim.shape_cache import ShapeCache
+from ...faces_hands_addon.core import presets
+
+__all__ = ["user_preset_folder", "preset_folder", "preferences", "output_folder", "default_voice",
+           "configure_presets", "copy_presets", "shape_cache", "shape_cache_summary", "clear_shape_cache"]
+
+_CACHE_FOLDER: list[Path | None] = [None]
+_PACKAGE: list[str | None] = [None]
+NO_CACHE_VARIABLE = "FH_NO_SHAPE_CACHE"     # set to 1 to simulate every target afresh (cold benchmarks)
+
+
+def user_preset_folder(package: str) -> Path | None:
+    """``<extension user folder>/presets`` (created), or None when the add-on is not an extension."""
+    try:
+        return Path(bpy.utils.extension_path_user(package, path="presets", create=True))
+    except (ValueError, RuntimeError, TypeError):
+        return None
+
+
+def preferences(package: str | None = None):
+    """The add-on preferences (``panels.preferences``), or None when the add-on is not enabled."""
+    package = package or _PACKAGE[0]
+    addon = bpy.context.preferences.addons.get(package) if package else None
+    return addon.preferences if addon is not None else None
+
+
+def preset_folder(package: str) -> Path | None:
+    """The folder whose presets override the shipped ones: the preferences' Preset Folder, else the
+    extension's user folder."""
+    prefs = preferences(package)
+    chosen = bpy.path.abspath(prefs.preset_folder) if prefs is not None and prefs.preset_folder else ""
+    return Path(chosen) if chosen else user_preset_folder(package)
+
+
+def output_folder() -> Path:
+    """The preferences' default output folder ('//' = beside the open .blend, or the working folder)."""
+    prefs = preferences()
+    folder = prefs.output_folder if prefs is not None and prefs.output_folder else "//"
+    if folder.startswith("//") and not bpy.data.filepath:
+        folder = folder[2:] or "."
+    return Path(bpy.path.abspath(folder))
+
+
+def default_voice() -> str:
+    prefs = preferences()
+    return (prefs.voice if prefs is not None else "") or "en-us"
+
+
+def configure_presets(package: str | None) -> None:
+    """Point the engine's preset resolver at the preset folder of ``package`` (at registration and when the
+    preference changes), or back at the shipped presets only (``None``, at unregistration); the same for
+    the shape cache."""
+    _PACKAGE[0] = package
+    presets.set_user_folder(preset_folder(package) if package else None)
+    folder = None
+    if package:
+        try:
+            folder = Path(bpy.utils.extension_path_user(package, path="cache/shapes", create=True))
+        except (ValueError, RuntimeError, TypeError):
+            folder = None
+    _CACHE_FOLDER[0] = folder
+
+
+def shape_cache() -> ShapeCache:
+    """The cache of settled target shapes in the extension's user folder (``anim.shape_cache``)."""
+    return ShapeCache(None if os.environ.get(NO_CACHE_VARIABLE) == "1" else _CACHE_FOLDER[0])
+
+
+def shape_cache_summary() -> tuple[int, int]:
+    """How many settled shapes the cache holds and their size in bytes."""
+    folder = _CACHE_FOLDER[0]
+    entries = list(folder.glob("*.npz")) if folder is not None and folder.is_dir() else []
+    return len(entries), sum(p.stat().st_size for p in entries)
+
+
+def clear_shape_cache() -> int:
+    """Delete every cached shape; returns how many files went."""
+    folder = _CACHE_FOLDER[0]
+    doomed = sorted(folder.glob("*.npz")) if folder is not None and folder.is_dir() else []
+    for path in doomed:
+        path.unlink(missing_ok=True)
+    return len(doomed)
+
+
+def copy_presets(overwrite: bool = False) -> tuple[Path, list[str]]:
+    """Copy the shipped presets into the user preset folder for editing (existing copies are kept unless
+    ``overwrite``). Returns the folder and the relative paths copied."""
+    folder = presets.user_folder()
+    if folder is None:
+        from ...faces_hands_addon.core.errors import UserError
+        raise UserError("this installation has no user folder for presets (install it as an extension)")
+    copied = []
+    for source in sorted(presets.SHIPPED_FOLDER.rglob("*")):
+        if not source.is_file():
+            continue
+        relative = source.relative_to(presets.SHIPPED_FOLDER)
+        target = folder / relative
+        if target.exists() and not overwrite:
+            continue
+        target.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(source, target)
+        copied.append(relative.as_posix())
+    return folder, copied

@@ -1,0 +1,111 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Small headless renders (Workbench) for previews, contact sheets and tests, and PNG files as arrays."""
+from __future__ import annotations
+
+import contextlib
+import math
+import os
+import sys
+from pathlib import Path
+
+import bpy
+import numpy as np
+
+
+def _bounds(objects) -> tuple[np.ndarray, np.ndarray]:
+    corners = []
+    for obj in objects:
+        matrix = np.array(obj.matrix_world)
+        local = np.array([list(c) for c in obj.bound_box] or [[0, 0, 0]], dtype=float)
+        corners.append(local @ matrix[:3, :3].T + matrix[:3, 3])
+    points = np.concatenate(corners)
+    return points.min(axis=0), points.max(axis=0)
+
+
+def setup_workbench(scene: bpy.types.Scene, size=(480, 480)) -> None:
+    scene.render.engine = "BLENDER_WORKBENCH"
+    scene.render.resolution_x, scene.render.resolution_y = size
+    scene.render.resolution_percentage = 100
+    scene.render.image_settings.file_format = "PNG"
+    shading = scene.display.shading
+    shading.light = "STUDIO"
+    shading.color_type = "MATERIAL"
+    shading.show_specular_highlight = True
+    scene.display_settings.display_device = "sRGB"
+    scene.view_settings.view_transform = "Standard"
+
+
+def frame_camera(scene: bpy.types.Scene, objects, azimuth_deg: float = 0.0, elevation_deg: float = 5.0,
+                 margin: float = 1.15, bounds=None) -> bpy.types.Object:
+    """Place an orthographic camera looking at ``objects`` (or explicit world ``bounds`` = (low, high))
+    from the front (-Y), turned by azimuth."""
+    low, high = (np.asarray(b, dtype=float) for b in bounds) if bounds is not None else _bounds(objects)
+    centre = (low + high) / 2
+    extent = float(np.max(high - low)) * margin
+    camera_data = bpy.data.cameras.get("FH Preview Camera") or bpy.data.cameras.new("FH Preview Camera")
+    camera_data.type = "ORTHO"
+    camera_data.ortho_scale = extent
+    camera = bpy.data.objects.get("FH Preview Camera") or bpy.data.objects.new("FH Preview Camera", camera_data)
+    if camera.name not in scene.collection.objects:
+        scene.collection.objects.link(camera)
+    azimuth, elevation = math.radians(azimuth_deg), math.radians(elevation_deg)
+    direction = np.array([math.sin(azimuth) * math.cos(elevation), -math.cos(azimuth) * math.cos(elevation),
+                          math.sin(elevation)])
+    camera.location = tuple(centre + direction * extent * 3)
+    camera.rotation_euler = (math.pi / 2 - elevation, 0.0, azimuth)
+    camera_data.clip_end = extent * 10
+    scene.camera = camera
+    return camera
+
+
+def render_objects(scene, objects, filepath: str | Path, size=(480, 480), azimuth_deg: float = 0.0,
+                   reframe: bool = True) -> Path:
+    """Render ``objects`` with Workbench to a PNG; ``reframe=False`` keeps the current camera."""
+    setup_workbench(scene, size)
+    if reframe or scene.camera is None:
+        frame_camera(scene, objects, azimuth_deg=azimuth_deg)
+    scene.render.filepath = str(filepath)
+    with quiet_stdout():
+        bpy.ops.render.render(write_still=True)
+    return Path(filepath)
+
+
+@contextlib.contextmanager
+def quiet_stdout():
+    """Keep Blender's per-render 'Saved: ...' lines off stdout (the CLI's output is its report)."""
+    sys.stdout.flush()
+    saved = os.dup(1)
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, 1)
+        yield
+    finally:
+        sys.stdout.flush()
+        os.dup2(saved, 1)
+        os.close(saved)
+        os.close(devnull)
+
+
+def read_png(path: Path) -> np.ndarray:
+    """A PNG as an (H, W, 4) float32 array (bottom row first, as Blender stores images)."""
+    image = bpy.data.images.load(str(path))
+    try:
+        width, height = image.size
+        pixels = np.empty(width * height * 4, dtype=np.float32)
+        image.pixels.foreach_get(pixels)
+        return pixels.reshape(height, width, 4)
+    finally:
+        bpy.data.images.remove(image)
+
+
+def write_png(array: np.ndarray, path: Path) -> None:
+    """Write an (H, W, 4) float array (bottom row first) as a PNG."""
+    height, width = array.shape[:2]
+    image = bpy.data.images.new("FH Sheet", width=width, height=height, alpha=True)
+    try:
+        image.pixels.foreach_set(np.ascontiguousarray(array, dtype=np.float32).ravel())
+        image.filepath_raw = str(path)
+        image.file_format = "PNG"
+        image.save()
+    finally:
+        bpy.data.images.remove(image)

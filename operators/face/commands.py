@@ -1,0 +1,132 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""``faces_hands build-face | bake | render``: face rigs in batch (render farms, CI)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import bpy
+
+from ...faces_hands_addon.core.errors import UserError
+from ..common.blendfile import save_blend
+from ..common.export import save_or_export
+from ..common.outputs import atomic_output, check_output_path, written
+from ..common.rig_store import get_rig
+from . import services, sheet
+from .objects import EXPORT_ROLES
+
+MESH_SUFFIXES = (".obj", ".ply", ".stl", ".glb", ".gltf", ".fbx")
+
+
+class BuildFace:
+    NAME = "build-face"
+    HELP = "build a MEDUSA face rig (default head, or fitted to --mesh) and save it as a .blend"
+
+    @staticmethod
+    def add_arguments(parser):
+        parser.add_argument("--mesh", help="head mesh to fit (OBJ, PLY, STL, glTF/GLB, FBX), facing -Y, Z up")
+        parser.add_argument("--resolution", choices=("default", "10k"), default="default",
+                            help="skin resolution of the default head")
+        parser.add_argument("--name", default="FH Head", help="name of the rig object")
+        parser.add_argument("--out", required=True, help="output .blend file")
+
+    @staticmethod
+    def run(args, progress) -> int:
+        out = check_output_path(args.out, (".blend",))
+        if args.mesh:
+            services.build_fitted_from_file(args.mesh, args.name, progress)
+        else:
+            services.build_default_rig_object(progress, args.name, args.resolution)
+        save_blend(out)
+        print(written([out]))
+        return 0
+
+
+class Bake:
+    NAME = "bake"
+    HELP = "bake a face rig to shape keys (basis | expressions | animation) and save .glb, .fbx or .blend"
+
+    @staticmethod
+    def add_arguments(parser):
+        parser.add_argument("--blend", help="a .blend with a face rig (default: build the default head)")
+        parser.add_argument("--mode", choices=("basis", "expressions", "animation"), required=True)
+        parser.add_argument("--preset", default="all", choices=(*services.EXPRESSION_SETS, "all"),
+                            help="expression set for --mode expressions, and the targets an animation is "
+                                 "expressed with (default: all)")
+        parser.add_argument("--animation", default="weights", choices=services.ANIMATION_KINDS,
+                            help="--mode animation as engine-ready weights of fixed targets (default) or as the "
+                                 "exact per-frame cache (frames: one shape key per frame, for offline renders)")
+        parser.add_argument("--rig", help="name of the rig object when the file has several")
+        parser.add_argument("--out", required=True, help="output .glb, .fbx or .blend")
+
+    @staticmethod
+    def run(args, progress) -> int:
+        out = check_output_path(args.out, (".glb", ".fbx", ".blend"))
+        rig = services.rig_object(args.blend, args.rig, progress)
+        print(services.bake(bpy.context, rig, args.mode, args.preset, progress, args.animation))
+        save_or_export(bpy.context, rig, out, EXPORT_ROLES)
+        print(written([out]))
+        return 0
+
+
+class Render:
+    NAME = "render"
+    HELP = "render a labelled contact sheet of a face rig (neutral, muscles, jaw, ARKit, visemes)"
+
+    @staticmethod
+    def add_arguments(parser):
+        parser.add_argument("--blend", help="a .blend with a face rig (default: the default head)")
+        parser.add_argument("--sheet", choices=("expressions", "muscles"), default="expressions",
+                            help="expressions: neutral, muscles, direct parameters, ARKit and visemes; "
+                                 "muscles: neutral, muscles and direct parameters only")
+        parser.add_argument("--rig", help="name of the rig object when the file has several")
+        parser.add_argument("--columns", type=int, default=10)
+        parser.add_argument("--view", choices=tuple(sheet.VIEWS), default="front",
+                            help="camera: front (default), three-quarter or side")
+        parser.add_argument("--out", required=True, help="output .png")
+
+    @staticmethod
+    def run(args, progress) -> int:
+        out = check_output_path(args.out, (".png",))
+        if not 1 <= args.columns <= 50:
+            raise UserError("--columns must be between 1 and 50")
+        rig_obj = services.rig_object(args.blend, args.rig, progress)
+        include = ("neutral", "muscles", "direct") + (("arkit", "visemes") if args.sheet == "expressions" else ())
+        cells = sheet.expression_cells(get_rig(rig_obj), include)
+        with atomic_output(out) as tmp:
+            sheet.render_sheet(bpy.context, rig_obj, cells, tmp, columns=args.columns, progress=progress,
+                               view=args.view)
+        print(written([out]))
+        return 0
+
+
+class Retarget:
+    NAME = "retarget"
+    HELP = ("put a take (a face rig's weight animation, or a Live Link Face CSV) onto a character with ARKit or "
+            "viseme shape keys and save it as .glb, .fbx or .blend")
+
+    @staticmethod
+    def add_arguments(parser):
+        parser.add_argument("--source", required=True,
+                            help="a .blend with a face rig whose animation is baked as weights, or a Live Link CSV")
+        parser.add_argument("--rig", help="name of the rig object when the source file has several")
+        parser.add_argument("--csv-fps", type=float, default=60.0,
+                            help="frame rate the CSV's timecodes count in (Live Link Face: 60 unless set to 30)")
+        parser.add_argument("--character", required=True,
+                            help="the character: .blend, .glb/.gltf, .fbx or .obj with shape keys")
+        parser.add_argument("--object", help="name of the character's mesh when the file has several")
+        parser.add_argument("--fps", type=float, default=30.0, help="frame rate of the output animation")
+        parser.add_argument("--out", required=True, help="output .glb, .fbx or .blend")
+
+    @staticmethod
+    def run(args, progress) -> int:
+        out = check_output_path(args.out, (".glb", ".fbx", ".blend"))
+        for source in (args.source, args.character):
+            if Path(source).resolve() == out.resolve():
+                raise UserError(f"--out {out} would overwrite the input {source}; choose another file name")
+        report = services.retarget(args, out, progress)
+        print(report)
+        print(written([out]))
+        return 0
+
+
+COMMANDS = [BuildFace, Bake, Render, Retarget]

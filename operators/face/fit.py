@@ -1,0 +1,144 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Template -> new head in Blender (thesis 3.1.2): landmark markers on the artist's mesh, then a rig
+whose skin is that very mesh (topology, UVs, materials and shape keys untouched).
+
+Coordinates: the engine fits in *world* space (so the object's own rotation and scale count: the head
+must face -Y with Z up as seen in the viewport) and a fitted rig answers in the coordinates it was given
+(its internal human-scale head space stays inside the engine). The rig remembers the world matrix ``M0``
+of the moment it was built; its outputs map to the object's local space by ``inv(M0)``.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import bpy
+import numpy as np
+from mathutils import Matrix
+
+from ...faces_hands_addon.core.errors import UserError
+from ..common.meshes import mesh_triangles, mesh_vertices
+from ..common.rig_store import OUTPUT_TO_LOCAL, PART_ROLE, parts
+from .objects import create_rig_objects
+
+LANDMARKS_ROLE = "landmarks"
+MAX_IMPORT_BYTES = 2_000_000_000
+
+
+def world_geometry(obj) -> tuple[np.ndarray, np.ndarray]:
+    """The object's base mesh (no modifiers, no shape keys) in world coordinates, and its triangles."""
+    if obj is None or obj.type != "MESH":
+        raise UserError("select the head mesh (a mesh object) first")
+    mesh = obj.data
+    if len(mesh.polygons) == 0:
+        raise UserError(f"'{obj.name}' has no faces; the head must be a surface mesh, not only vertices/edges")
+    vertices = mesh_vertices(mesh).astype(np.float64)
+    matrix = np.array(obj.matrix_world, dtype=np.float64)
+    world = vertices @ matrix[:3, :3].T + matrix[:3, 3]
+    return world, mesh_triangles(mesh).astype(np.int64)
+
+
+# ------------------------------------------------------------------------------ markers
+def landmark_object(head):
+    for child in head.children:
+        if child.get(PART_ROLE) == LANDMARKS_ROLE:
+            return child
+    return None
+
+
+def _contour_edges() -> list[tuple[int, int]]:
+    from ...faces_hands_addon.assets import face_contours
+    contours = face_contours()
+    edges = set()
+    for name, line in contours.lines.items():
+        points = [int(i) for i in line]
+        if contours.closed.get(name):
+            points.append(points[0])
+        edges.update(tuple(sorted(pair)) for pair in zip(points[:-1], points[1:]) if pair[0] != pair[1])
+    return sorted(edges)
+
+
+def create_markers(context, head, positions_world: np.ndarray):
+    """An editable landmark mesh (468 vertices, contour edges) parented to the head: the artist drags
+    vertices in Edit Mode (face snapping keeps them on the surface) before fitting."""
+    old = landmark_object(head)
+    if old is not None:
+        mesh = old.data
+        bpy.data.objects.remove(old)
+        bpy.data.meshes.remove(mesh)
+    inverse = np.linalg.inv(np.array(head.matrix_world, dtype=np.float64))
+    local = positions_world @ inverse[:3, :3].T + inverse[:3, 3]
+    mesh = bpy.data.meshes.new(f"{head.name} Landmarks")
+    mesh.from_pydata(local.tolist(), _contour_edges(), [])
+    markers = bpy.data.objects.new(f"{head.name} Landmarks", mesh)
+    for collection in head.users_collection:
+        collection.objects.link(markers)
+    markers.parent = head
+    markers[PART_ROLE] = LANDMARKS_ROLE
+    markers.show_in_front = True
+    markers.display_type = "WIRE"
+    return markers
+
+
+def marker_positions_world(head) -> np.ndarray | None:
+    markers = landmark_object(head)
+    if markers is None:
+        return None
+    if markers.mode == "EDIT":
+        markers.update_from_editmode()
+    local = mesh_vertices(markers.data).astype(np.float64)
+    if len(local) != 468:
+        raise UserError(f"'{markers.name}' must keep its 468 vertices (it has {len(local)}); "
+                        "delete it and locate the landmarks again")
+    matrix = np.array(markers.matrix_world, dtype=np.float64)
+    return local @ matrix[:3, :3].T + matrix[:3, 3]
+
+
+# ------------------------------------------------------------------------------ the fitted rig
+def attach_rig(context, head, rig, world_matrix: np.ndarray, name: str | None = None):
+    """Turn ``head`` into a rig object: parts, controls and engine state (its mesh is not changed)."""
+    to_local = np.linalg.inv(world_matrix)
+    head[OUTPUT_TO_LOCAL] = [float(v) for v in to_local.ravel()]
+    obj = create_rig_objects(context, rig, name or f"FH {head.name}", skin_obj=head)
+    for part in parts(obj).values():
+        part.matrix_parent_inverse = Matrix(to_local.tolist())
+    warnings = list(getattr(rig, "warnings", []) or [])
+    if warnings:
+        obj["fh_rig_warnings"] = json.dumps(warnings)
+    return obj
+
+
+IMPORTERS = {
+    ".obj": lambda path: bpy.ops.wm.obj_import(filepath=path),
+    ".ply": lambda path: bpy.ops.wm.ply_import(filepath=path),
+    ".stl": lambda path: bpy.ops.wm.stl_import(filepath=path),
+    ".glb": lambda path: bpy.ops.import_scene.gltf(filepath=path),
+    ".gltf": lambda path: bpy.ops.import_scene.gltf(filepath=path),
+    ".fbx": lambda path: bpy.ops.import_scene.fbx(filepath=path),
+}
+
+
+def import_meshes(path: str) -> list:
+    """Import a mesh file with Blender's own importer (default axis conversion); returns the new meshes."""
+    file = Path(path)
+    if not file.is_file():
+        raise UserError(f"{file} does not exist")
+    importer = IMPORTERS.get(file.suffix.lower())
+    if importer is None:
+        raise UserError(f"{file.suffix or file.name}: use one of {', '.join(sorted(IMPORTERS))}")
+    if file.stat().st_size > MAX_IMPORT_BYTES:
+        raise UserError(f"{file} is larger than 2 GB")
+    before = set(bpy.data.objects)
+    try:
+        importer(str(file.resolve()))
+    except (RuntimeError, ValueError) as error:
+        raise UserError(f"cannot import {file}: {str(error).splitlines()[-1]}") from None
+    meshes = [o for o in bpy.data.objects if o not in before and o.type == "MESH"]
+    if not meshes:
+        raise UserError(f"{file} contains no mesh")
+    return meshes
+
+
+def import_head(path: str):
+    """Import a head mesh (see :func:`import_meshes`); the biggest mesh wins."""
+    return max(import_meshes(path), key=lambda o: len(o.data.vertices))

@@ -1,0 +1,51 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Locate Landmarks and Fit Face Rig: make the artist's own head mesh animatable (thesis 3.1.2)."""
+from __future__ import annotations
+
+import bpy
+
+from ...faces_hands_addon.core.errors import UserError
+from ..common.jobs import Job
+from ..common.modal import JobOperator
+from ..common.rig_store import PART_ROLE, is_rig
+from .fit import LANDMARKS_ROLE
+from .jobs import FitRigJob, LocateJob
+
+
+def _selected_head(context):
+    obj = context.active_object
+    if obj is not None and obj.get(PART_ROLE) == LANDMARKS_ROLE:
+        obj = obj.parent
+    if obj is None or obj.type != "MESH":
+        raise UserError("select the head mesh (facing -Y, Z up) first")
+    if is_rig(obj):
+        raise UserError(f"'{obj.name}' is already a face rig")
+    return obj
+
+
+class FH_OT_locate_landmarks(JobOperator, bpy.types.Operator):
+    """Find the 468 face landmarks on the selected head mesh automatically (registration of the template
+    face) and show them as an editable landmark mesh you can adjust before fitting"""
+
+    bl_idname = "faces_hands.locate_landmarks"
+    bl_label = "Locate Landmarks"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def make_job(self, context) -> Job:
+        return LocateJob(context, _selected_head(context))
+
+
+class FH_OT_fit_face_rig(JobOperator, bpy.types.Operator):
+    """Make the selected head mesh animatable: warp the template's skull, jaw, muscles, eyes, teeth and
+    tongue to it and build the spring network on the mesh itself (its topology, UVs, materials and shape
+    keys are kept). Uses the landmark mesh if you located and edited landmarks"""
+
+    bl_idname = "faces_hands.fit_face_rig"
+    bl_label = "Fit Face Rig"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def make_job(self, context) -> Job:
+        return FitRigJob(context, _selected_head(context))
+
+
+CLASSES = [FH_OT_locate_landmarks, FH_OT_fit_face_rig]

@@ -1,0 +1,136 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Labelled contact sheets of a face rig: one small Workbench render per pose, composed into one PNG.
+
+Each cell is the *simulated* face (settled from rest with the cell's controls, 3.1.2), pushed into the
+rig's simulation key, rendered with a text label under the head. Used by ``faces_hands render --sheet``
+and the demo, and by the tests that look at what the rig does.
+"""
+from __future__ import annotations
+
+import math
+import shutil
+import tempfile
+from pathlib import Path
+from typing import Callable
+
+import bpy
+import numpy as np
+
+from ...faces_hands_addon.anim.layers import BASE_LAYER
+from ..common import render
+from ..common.poses import push_pose
+from ..common.rig_store import get_rig, parts, to_world
+from .objects import update_muscle_display
+
+Cell = tuple[str, dict]
+
+#: contact-sheet camera azimuths (degrees about Z; the face looks along -Y, the side view looks at the
+#: character's left cheek): lip protrusion can only be judged from the side
+VIEWS = {"front": 0.0, "three-quarter": 45.0, "side": 90.0}
+
+
+def expression_cells(rig, include=("neutral", "muscles", "direct", "arkit", "visemes")) -> list[Cell]:
+    """Neutral, each muscle at full contraction, each direct parameter at full value, ARKit and visemes."""
+    from ...faces_hands_addon.face.expressions import load_expressions
+    specs = rig.control_specs()
+    cells: list[Cell] = []
+    if "neutral" in include:
+        cells.append(("neutral", {}))
+    if "muscles" in include:
+        cells += [(name, {name: 1.0}) for name, spec in specs.items() if spec.kind == "muscle"]
+    if "direct" in include:
+        for name, spec in specs.items():
+            if spec.kind == "direct":
+                cells.append((name, {name: spec.maximum}))
+                if spec.minimum < 0:
+                    cells.append((f"{name} -1", {name: spec.minimum}))
+    for set_name in ("arkit", "visemes"):
+        if set_name in include:
+            cells += list(load_expressions(set_name).items())
+    return cells
+
+
+def rig_controls(rig, controls: dict) -> dict:
+    """A cell's control values checked against the rig (unknown names refused, values clamped)."""
+    from ...faces_hands_addon.core.controls import clamp_controls
+    return clamp_controls(controls, rig.control_specs(), strict=True)
+
+
+def _show(obj, rig, pose) -> None:
+    push_pose(obj, pose)
+    update_muscle_display(obj, rig)
+
+
+def _label_object(collection, text: str, location, size: float, azimuth: float = 0.0):
+    curve = bpy.data.curves.new("FH Sheet Label", "FONT")
+    curve.body = text
+    curve.size = size
+    curve.align_x = "CENTER"
+    label = bpy.data.objects.new("FH Sheet Label", curve)
+    collection.objects.link(label)
+    label.location = location
+    label.rotation_euler = (math.pi / 2, 0.0, azimuth)  # readable from the camera
+    material = bpy.data.materials.get("FH Sheet Label") or bpy.data.materials.new("FH Sheet Label")
+    material.diffuse_color = (0.05, 0.05, 0.05, 1.0)
+    curve.materials.append(material)
+    return label
+
+
+def render_sheet(context, obj, cells: list[Cell], out_path, cell_size=(220, 250), columns: int = 8,
+                 progress: Callable[[float, str], None] | None = None, settle_time: float = 1.2,
+                 view: str = "front") -> Path:
+    """Render one cell per (label, controls) and compose them row by row into ``out_path`` (PNG), seen
+    from ``view`` (a key of :data:`VIEWS`)."""
+    rig = get_rig(obj)
+    scene = context.scene
+    visible = [obj] + [p for role, p in parts(obj).items()
+                       if role not in ("skull", "jaw", "muscles")]
+    hidden_before = {o.name: o.hide_render for o in scene.objects}
+    for other in scene.objects:
+        other.hide_render = other not in visible
+    world = to_world(obj, rig.rest_positions)
+    low, high = world.min(axis=0), world.max(axis=0)
+    height = float(high[2] - low[2])
+    azimuth = math.radians(VIEWS[view])
+    centre = (low + high) / 2
+    front = np.array([0.0, low[1] - 0.02 - centre[1]])  # the label stands in front of the head, facing the camera
+    turned = np.array([[math.cos(azimuth), -math.sin(azimuth)], [math.sin(azimuth), math.cos(azimuth)]]) @ front
+    label = _label_object(scene.collection, "", (centre[0] + turned[0], centre[1] + turned[1],
+                                                 low[2] - 0.30 * height), 0.085 * height, azimuth)
+    tmp_dir = Path(tempfile.mkdtemp(prefix="fh-sheet-"))
+    tiles = []
+    label.data.body = "neutral"
+    render.setup_workbench(scene, cell_size)
+    margin_below = 0.36 * height  # room for an open jaw and the label under the chin
+    render.frame_camera(scene, visible, azimuth_deg=VIEWS[view], margin=1.08,
+                           bounds=(low - np.array([0.0, 0.0, margin_below]), high))
+    try:
+        for index, (name, controls) in enumerate(cells):
+            if progress:
+                progress(index / max(len(cells), 1), f"rendering {name}")
+            _show(obj, rig, rig.settled({BASE_LAYER: rig_controls(rig, controls)}, settle_time))
+            label.data.body = name
+            tile = tmp_dir / f"cell_{index:04d}.png"
+            render.render_objects(scene, visible + [label], tile, size=cell_size, reframe=False)
+            tiles.append(render.read_png(tile))
+        rows = math.ceil(len(tiles) / columns)
+        tile_h, tile_w = tiles[0].shape[:2]
+        sheet = np.ones((rows * tile_h, columns * tile_w, 4), dtype=np.float32)
+        for index, tile in enumerate(tiles):
+            row, col = divmod(index, columns)
+            top = (rows - 1 - row) * tile_h  # Blender images start at the bottom row
+            sheet[top:top + tile_h, col * tile_w:(col + 1) * tile_w] = tile
+        out_path = Path(out_path)
+        render.write_png(sheet, out_path)
+        if progress:
+            progress(1.0, f"contact sheet with {len(tiles)} cells")
+    finally:
+        rig.reset()
+        _show(obj, rig, rig.pose())
+        curve = label.data
+        bpy.data.objects.remove(label)
+        bpy.data.curves.remove(curve)
+        for other in scene.objects:
+            other.hide_render = hidden_before.get(other.name, False)
+        shutil.rmtree(tmp_dir, ignore_errors=True)
+    return out_path

@@ -1,0 +1,111 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""``faces_hands build-hand | animate-hand | render-hand``: hand rigs in batch."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import bpy
+
+from ...faces_hands_addon.core.errors import UserError
+from ..common.blendfile import save_blend
+from ..common.export import save_or_export
+from ..common.outputs import atomic_output, check_output_path, written
+from ..common.rig_store import get_rig
+from . import services, sheet
+from .objects import EXPORT_ROLES
+
+
+class BuildHand:
+    NAME = "build-hand"
+    HELP = "build an anatomical hand rig (the reference hand, or warped to a photo) and save it as a .blend"
+
+    @staticmethod
+    def add_arguments(parser):
+        parser.add_argument("--side", choices=("right", "left"), default="right", help="which hand (default right)")
+        parser.add_argument("--photo", help="photo of a flat hand with a ruler (PNG/JPEG), with --points")
+        parser.add_argument("--points", help="JSON with the clicked feature points and ruler marks (pixels)")
+        parser.add_argument("--name", default="FH Hand", help="name of the rig object")
+        parser.add_argument("--out", required=True, help="output .blend file")
+
+    @staticmethod
+    def run(args, progress) -> int:
+        out = check_output_path(args.out, (".blend",))
+        photo = None
+        if bool(args.photo) != bool(args.points):
+            raise UserError("--photo and --points go together: the photo and the feature points clicked on it")
+        if args.points:
+            if not Path(args.photo).is_file():
+                raise UserError(f"{args.photo} does not exist")
+            if Path(args.photo).resolve() == out.resolve() or Path(args.points).resolve() == out.resolve():
+                raise UserError("the output must not overwrite an input")
+            photo = services.read_photo(args.points)
+            photo["image"] = str(Path(args.photo).resolve())
+        services.build_hand_object(progress, args.name, args.side, photo)
+        save_blend(out)
+        print(written([out]))
+        return 0
+
+
+class AnimateHand:
+    NAME = "animate-hand"
+    HELP = "animate a hand rig with a preset pose or motion, bake it and export .glb, .fbx or .blend"
+
+    @staticmethod
+    def add_arguments(parser):
+        parser.add_argument("--blend", help="a .blend with a hand rig (default: build the reference hand)")
+        parser.add_argument("--preset", required=True, help="a motion or pose of presets/hand/poses.json")
+        parser.add_argument("--rig", help="name of the rig object when the file has several")
+        parser.add_argument("--fps", type=float, default=30.0, help="frame rate of the animation (default 30)")
+        parser.add_argument("--out", required=True, help="output .glb, .fbx or .blend")
+
+    @staticmethod
+    def run(args, progress) -> int:
+        out = check_output_path(args.out, (".glb", ".fbx", ".blend"))
+        if args.blend and Path(args.blend).resolve() == out.resolve():
+            raise UserError("the output must not overwrite the input .blend")
+        if not 1.0 <= args.fps <= 240.0:
+            raise UserError("--fps must be between 1 and 240")
+        obj = services.hand_object(args.blend, args.rig, progress)
+        scene = bpy.context.scene
+        scene.render.fps, scene.render.fps_base = int(round(args.fps)), round(args.fps) / args.fps
+        first, last = services.animate(bpy.context, obj, args.preset)
+        print(f"keyed {args.preset!r} on frames {first}-{last}")
+        print(services.bake(bpy.context, obj, progress))
+        save_or_export(bpy.context, obj, out, EXPORT_ROLES)
+        print(written([out]))
+        return 0
+
+
+class RenderHand:
+    NAME = "render-hand"
+    HELP = "render a labelled contact sheet of a hand rig in preset poses"
+
+    @staticmethod
+    def add_arguments(parser):
+        parser.add_argument("--blend", help="a .blend with a hand rig (default: the reference hand)")
+        parser.add_argument("--rig", help="name of the rig object when the file has several")
+        parser.add_argument("--sheet", choices=("poses", "bulges"), default="poses",
+                            help="poses: preset poses simulated; bulges: each geometric muscle contracted, joints held")
+        parser.add_argument("--poses", help="comma-separated pose names (default: every preset pose)")
+        parser.add_argument("--view", choices=tuple(sheet.VIEWS), default="palm", help="camera (default palm)")
+        parser.add_argument("--columns", type=int, default=4)
+        parser.add_argument("--bones", action="store_true", help="render the bones instead of the skin")
+        parser.add_argument("--out", required=True, help="output .png")
+
+    @staticmethod
+    def run(args, progress) -> int:
+        out = check_output_path(args.out, (".png",))
+        if not 1 <= args.columns <= 20:
+            raise UserError("--columns must be between 1 and 20")
+        obj = services.hand_object(args.blend, args.rig, progress)
+        names = [n.strip() for n in args.poses.split(",")] if args.poses else None
+        rig = get_rig(obj, "hand")
+        cells = sheet.bulge_cells(rig) if args.sheet == "bulges" else sheet.pose_cells(rig, names)
+        with atomic_output(out) as tmp:
+            sheet.render_hand_sheet(bpy.context, obj, cells, tmp, args.view, args.columns, progress=progress,
+                                    show_bones=args.bones)
+        print(written([out]))
+        return 0
+
+
+COMMANDS = [BuildHand, AnimateHand, RenderHand]

@@ -1,0 +1,252 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The morphable-face services (thesis 3.2, 5.1) for operators, commands and other subsystems: morph face
+objects, their edit state, the model they use, and the hand-over to the face rig ("Make Animatable").
+
+A morph face object is a mesh on the model's topology with a per-vertex colour attribute (``FH Albedo``);
+it stores which model it uses (``fh_morph_model``: ``default`` or a file) and its edit state
+(``fh_morph_state``: the JSON of :meth:`EditFace.state`). The engine face is cached once per session and
+rebuilt by replaying the stored state whenever it differs (Blender undo, another file)."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import bpy
+import numpy as np
+
+from ...faces_hands_addon.core.errors import UserError
+from ...faces_hands_addon.morph.editing import EditFace, face_from_state
+from ...faces_hands_addon.morph.segments import hierarchy_order
+from ..common.meshes import mesh_from_arrays, object_from_mesh
+
+__all__ = ["MORPH_MARKER", "DEFAULT", "model_for", "create_face_object", "face_of", "morph_object",
+           "write_face", "apply", "sync_panel", "save_face", "load_face", "segment_colours", "make_animatable"]
+
+MORPH_MARKER = "fh_morph"
+MODEL_KEY = "fh_morph_model"
+STATE_KEY = "fh_morph_state"
+EXAMPLES_KEY = "fh_morph_examples"
+HISTORY_KEY = "fh_morph_history"
+ALBEDO = "FH Albedo"
+MASK = "FH Segments"
+DEFAULT = "default"
+
+_models: dict[str, object] = {}
+_faces: dict[int, tuple[str, EditFace]] = {}
+
+
+def model_for(source: str = DEFAULT):
+    """The model of ``source`` (``default`` or a model file), loaded once per session."""
+    if source in _models:
+        return _models[source]
+    key = DEFAULT if source in ("", DEFAULT) else str(Path(bpy.path.abspath(source)).resolve())
+    if key not in _models:
+        if key == DEFAULT:
+            from ...faces_hands_addon.morph.population import default_model
+            _models[key] = default_model()
+        else:
+            from ...faces_hands_addon.morph.loaders import load_model
+            _models[key] = load_model(key)
+    return _models[key]
+
+
+def remember_model(key: str, model) -> None:
+    """Keep a model built in this session (e.g. from meshes) under ``key``."""
+    _models[key] = model
+
+
+def morph_object(obj):
+    """The morph face object ``obj`` (or None)."""
+    return obj if obj is not None and obj.get(MORPH_MARKER) else None
+
+
+def _material(name: str):
+    material = bpy.data.materials.get(name)
+    if material is None:
+        material = bpy.data.materials.new(name)
+        material.use_nodes = True
+        nodes = material.node_tree.nodes
+        shader = nodes.get("Principled BSDF")
+        attribute = nodes.new("ShaderNodeAttribute")
+        attribute.attribute_name = ALBEDO
+        if shader is not None:
+            material.node_tree.links.new(attribute.outputs["Color"], shader.inputs["Base Color"])
+            shader.inputs["Roughness"].default_value = 0.6
+    return material
+
+
+def create_face_object(context, source: str = DEFAULT, kind: str = "average", seed: int = 0, index: int = 0,
+                       name: str = "FH Morph Face"):
+    """A new morph face object (average, random with ``seed``, or database example ``index``)."""
+    model = model_for(source)
+    face = EditFace(model)
+    face.create(kind, seed=seed, index=index)
+    mesh = mesh_from_arrays(name, face.shape, model.triangles, model.uvs)
+    obj = object_from_mesh(mesh, context.scene.collection, name)
+    obj[MORPH_MARKER] = 1
+    obj[MODEL_KEY] = DEFAULT if source in ("", DEFAULT) else source
+    obj[EXAMPLES_KEY] = json.dumps([[i, name, labels] for i, (name, labels)
+                                    in enumerate(zip(model.example_names, model.example_labels))])
+    mesh.color_attributes.new(ALBEDO, "FLOAT_COLOR", "POINT")
+    mesh.color_attributes.new(MASK, "FLOAT_COLOR", "POINT")
+    _show_colours(mesh, ALBEDO)
+    mesh.materials.append(_material("FH Morph Skin"))
+    write_face(obj, face)
+    sync_panel(obj, face)
+    for other in context.view_layer.objects.selected:
+        other.select_set(False)
+    obj.select_set(True)
+    context.view_layer.objects.active = obj
+    return obj
+
+
+def face_of(obj) -> EditFace:
+    """The engine face of a morph face object (replayed from its stored state when needed)."""
+    if morph_object(obj) is None:
+        raise UserError("select a morph face (create one with 'New Face' in Morphable Face)")
+    stored = obj.get(STATE_KEY, "")
+    cached = _faces.get(obj.session_uid)
+    if cached is not None and cached[0] == stored:
+        return cached[1]
+    face = face_from_state(model_for(obj.get(MODEL_KEY, DEFAULT)), stored)
+    _faces[obj.session_uid] = (stored, face)
+    return face
+
+
+def write_face(obj, face: EditFace) -> None:
+    """Vertices and albedo into the mesh (foreach_set, no loops) and the state onto the object."""
+    mesh = obj.data
+    if len(mesh.vertices) != face.model.vertex_count:
+        raise UserError(f"'{obj.name}' has {len(mesh.vertices)} vertices; its model has {face.model.vertex_count}")
+    mesh.attributes["position"].data.foreach_set("vector", np.ascontiguousarray(face.shape, np.float32).ravel())
+    if face.colour is not None and ALBEDO in mesh.color_attributes:
+        rgba = np.ones((len(face.colour), 4), np.float32)
+        rgba[:, :3] = np.clip(face.colour, 0.0, 1.0)
+        mesh.color_attributes[ALBEDO].data.foreach_set("color", rgba.ravel())
+    mesh.update()
+    state = json.dumps(face.state(), sort_keys=True)
+    obj[STATE_KEY] = state
+    obj[HISTORY_KEY] = "\n".join(face.history_lines())
+    _faces[obj.session_uid] = (state, face)
+
+
+def selected_segments(obj) -> list[str]:
+    return [item.name for item in obj.faces_hands_morph.segments if item.selected]
+
+
+def apply(obj, action) -> EditFace:
+    """Run ``action(face)`` on the object's face and write the result (all or nothing: a UserError leaves
+    the object as it was)."""
+    face = face_of(obj)
+    backup = face.state()
+    try:
+        action(face)
+    except UserError:
+        _faces[obj.session_uid] = (obj.get(STATE_KEY, ""), face_from_state(face.model, backup, blender=face.blender))
+        raise
+    write_face(obj, face)
+    return face
+
+
+def sync_panel(obj, face: EditFace) -> None:
+    """The object's slider and segment lists from the model, values from the face."""
+    settings = obj.faces_hands_morph
+    segments = selected_segments(obj) if len(settings.segments) else []
+    settings["caricature"] = face.caricature_level("shape", segments)
+    settings.sliders.clear()
+    for name, attribute in face.model.attributes.items():
+        item = settings.sliders.add()
+        item.name, item.category = name, attribute.category
+        item.has_colour = attribute.colour is not None
+        item["shape"] = face.slider(name, "shape", segments)
+        item["colour"] = face.slider(name, "colour", segments)
+    if not len(settings.segments):
+        parents = face.model.segment_parents
+        order = hierarchy_order(parents) if parents else list(face.model.segments)
+        for name in order:
+            item = settings.segments.add()
+            item.name = name
+            depth, probe = 0, name
+            while probe in parents:
+                depth, probe = depth + 1, parents[probe]
+            item.depth = depth
+
+
+def segment_colours(obj) -> None:
+    """Show the segments as colours (shades of the feature's colour; the selection bright, 5.1.2)."""
+    face = face_of(obj)
+    model, n = face.model, face.model.vertex_count
+    palette = model.info.get("segment_colours", {})
+    parents = model.segment_parents
+    colours = np.full((n, 4), 0.35, np.float32)
+    leaves = [s for s in model.segments if s not in set(parents.values()) and s != "face"]
+    for number, leaf in enumerate(leaves):
+        feature = leaf
+        while parents.get(feature, "face") != "face":
+            feature = parents[feature]
+        base = np.asarray(palette.get(feature, (0.5, 0.5, 0.5)), np.float32)
+        colours[model.segments[leaf], :3] = base * (0.55 + 0.45 * ((number % 3) / 2.0))
+    selected = selected_segments(obj)
+    if selected:
+        from ...faces_hands_addon.morph.segments import selection_mask
+        mask = selection_mask(model.segments, selected, n)
+        if mask is not None:
+            colours[~mask, :3] *= 0.35
+    colours[:, 3] = 1.0
+    obj.data.color_attributes[MASK].data.foreach_set("color", colours.ravel())
+    obj.data.update()
+
+
+def show_mask(obj, show: bool) -> None:
+    if show:
+        segment_colours(obj)
+    _show_colours(obj.data, MASK if show else ALBEDO)
+    obj.data.materials[0].node_tree.nodes["Attribute"].attribute_name = MASK if show else ALBEDO
+
+
+def _show_colours(mesh, name: str) -> None:
+    """Make ``name`` the colour attribute the viewport and Workbench renders show."""
+    attributes = mesh.color_attributes
+    attributes.active_color = attributes[name]
+    attributes.render_color_index = list(attributes).index(attributes[name])
+
+
+def save_face(obj, path: str) -> Path:
+    """The face as JSON (model, history, constraints, coefficients; 5.1.10)."""
+    from ..common.outputs import atomic_output, check_output_path
+    out = check_output_path(bpy.path.abspath(path), (".json",))
+    with atomic_output(out) as tmp:
+        tmp.write_text(json.dumps(face_of(obj).state(), indent=1, sort_keys=True), encoding="utf-8")
+    return out
+
+
+def load_face(obj, path: str) -> EditFace:
+    file = Path(bpy.path.abspath(path))
+    if not file.is_file():
+        raise UserError(f"{file} does not exist")
+    face = face_from_state(face_of(obj).model, file.read_text(encoding="utf-8"))
+    write_face(obj, face)
+    sync_panel(obj, face)
+    return face
+
+
+def make_animatable(context, obj, name: str | None = None):
+    """Hand the morphed face to the face-rig builder: it shares the template's topology, so its 468 vertices
+    are the landmarks (no registration); a copy of the mesh becomes the rig's skin."""
+    face = face_of(obj)
+    if face.model.info.get("topology") != "mediapipe_canonical_468":
+        raise UserError("Make Animatable needs a face on the MediaPipe topology (the default model)")
+    from ...faces_hands_addon.face.fitted import build_fitted_rig
+    world = np.asarray(obj.matrix_world, np.float64)
+    vertices = face.shape @ world[:3, :3].T + world[:3, 3]
+    rig = build_fitted_rig(vertices, np.asarray(face.model.triangles), landmarks=vertices, seed=0)
+    mesh = obj.data.copy()
+    head = bpy.data.objects.new(name or f"{obj.name} Rig", mesh)
+    for collection in obj.users_collection:
+        collection.objects.link(head)
+    head.matrix_world = obj.matrix_world
+    for key in (MORPH_MARKER, MODEL_KEY, STATE_KEY, EXAMPLES_KEY, HISTORY_KEY):
+        if key in head.keys():
+            del head[key]
+    from ..face.services import attach_fitted_rig
+    return attach_fitted_rig(context, head, rig, world, head.name)

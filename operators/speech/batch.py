@@ -1,0 +1,202 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Speech takes checked before any work, and jobs CSVs that never lose a file.
+
+Every take (one ``speak``/``lipsync`` line or one CSV row) is checked up front with what is cheap: the
+output names (never an input, never another output of the run, a WAV beside the output replaced only when
+this extension wrote it or ``--overwrite`` says so), numbers (finite, in range), the audio header (length
+limit) and the text length (an estimate of its duration). A jobs CSV runs on past a failing row, names
+every failure with its row (spreadsheet numbering: the header is row 1) and ends with a summary and a
+non-zero exit code; ``--fail-fast`` stops at the first failure instead. An interrupt says exactly which
+rows were written.
+"""
+from __future__ import annotations
+
+import csv
+import math
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ...faces_hands_addon.core.errors import UserError
+from ...faces_hands_addon.speech.audio import audio_header, written_here
+from ...faces_hands_addon.speech.espeak import RATE_RANGE
+from ...faces_hands_addon.speech.takes import check_text_length, estimated_seconds
+from ..common.bake import MAX_FRAMES
+from ..common.interrupts import raise_pending
+from ..common.outputs import check_output_path, ledger_mark, refuse_collisions, same_file, written, written_since
+from ..face.sheet import VIEWS
+
+__all__ = ["OUT_SUFFIXES", "COLUMNS", "checked_spec", "read_jobs", "run_jobs"]
+
+OUT_SUFFIXES = (".glb", ".fbx", ".blend")
+COLUMNS = ("out", "text", "audio", "transcript", "voice", "rate", "sheet", "view", "animation", "live_link")
+ANIMATIONS = ("weights", "frames")
+
+
+def _number(label: str, value, default: float, bounds: tuple[float, float]) -> float:
+    if value is None or (isinstance(value, str) and not value.strip()):
+        return float(default)
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise UserError(f"{label} {value!r} is not a number") from None
+    if not math.isfinite(number) or not bounds[0] <= number <= bounds[1]:
+        raise UserError(f"{label} {value!r} is outside {bounds[0]:g}..{bounds[1]:g}")
+    return number
+
+
+def _optional_path(spec: dict, key: str, suffixes) -> Path | None:
+    value = spec.get(key)
+    return check_output_path(value, suffixes) if value else None
+
+
+def _check_wav(wav: Path, overwrite: bool) -> None:
+    if wav.exists() and not overwrite and not written_here(wav):
+        raise UserError(f"{wav} exists and was not written by Faces & Hands, so it is left as it is: choose "
+                        "another output name, or pass --overwrite to replace it")
+
+
+def checked_spec(raw: dict, fps: float, rig_path=None, jobs_path=None, overwrite: bool = False) -> dict:
+    """The take ``raw`` (out, text or audio, ...) checked and normalised, before any expensive work."""
+    spec = {k: (v.strip() if isinstance(v, str) else v) for k, v in raw.items() if k}
+    if not spec.get("out"):
+        raise UserError("no output: the 'out' column (--out) is empty")
+    out = check_output_path(spec["out"], OUT_SUFFIXES)
+    text, audio = spec.get("text") or "", spec.get("audio") or ""
+    if text and audio:
+        raise UserError("give text or audio, not both")
+    if not text and not audio:
+        raise UserError("give text (speak) or audio (lipsync)")
+    if spec.get("transcript") and not audio:
+        raise UserError("a transcript goes with recorded audio, not with text")
+    animation = spec.get("animation") or "weights"
+    if animation not in ANIMATIONS:
+        raise UserError(f"unknown animation {animation!r}; use one of {', '.join(ANIMATIONS)}")
+    view = spec.get("view") or "front"
+    if view not in VIEWS:
+        raise UserError(f"unknown sheet view {view!r}; use one of {', '.join(VIEWS)}")
+    live_link = _optional_path(spec, "live_link", (".csv",))
+    if live_link is not None and animation != "weights":
+        raise UserError("a Live Link CSV needs the weights animation (leave out --animation frames)")
+    rate = _number("rate", spec.get("rate"), 175, RATE_RANGE)
+    if audio:
+        seconds = audio_header(audio).duration          # exists, readable, within the length limit
+    else:
+        check_text_length(text, rate)
+        seconds = estimated_seconds(text, rate)
+    if animation == "frames" and seconds * fps > MAX_FRAMES:
+        raise UserError(f"about {seconds:.0f} s at {fps:g} fps is more than {MAX_FRAMES} frames, the most a per-frame "
+                        "cache bakes; use the weights animation (the default), which has no frame limit")
+    wav = out.with_suffix(".wav")
+    outputs = {"the output": out, "the WAV beside the output": wav,
+               "the sheet": _optional_path(spec, "sheet", (".png",)), "the Live Link CSV": live_link}
+    refuse_collisions(outputs, {"audio": Path(audio) if audio else None,
+                                "rig": Path(rig_path) if rig_path else None,
+                                "jobs file": Path(jobs_path) if jobs_path else None})
+    _check_wav(wav, overwrite)
+    spec.update(out=str(out), text=text, audio=audio or None, rate=rate, animation=animation, view=view,
+                live_link=live_link, outputs=[p for p in outputs.values() if p is not None])
+    return spec
+
+
+def read_jobs(path: str) -> list[dict]:
+    """The rows of a jobs CSV (file-level problems raise; row problems are the rows' own, ``run_jobs``)."""
+    jobs_file = Path(path)
+    if not jobs_file.is_file():
+        raise UserError(f"jobs file {jobs_file} does not exist")
+    try:
+        with open(jobs_file, newline="", encoding="utf-8") as handle:
+            reader = csv.DictReader(handle)
+            rows = list(reader)
+            header = reader.fieldnames or []
+    except (UnicodeDecodeError, csv.Error) as error:
+        raise UserError(f"{jobs_file} is not a readable UTF-8 CSV file ({error})") from None
+    if "out" not in header:
+        raise UserError(f"{jobs_file} has no 'out' column (columns: {', '.join(COLUMNS)})")
+    unknown = [name for name in header if name and name not in COLUMNS]
+    if unknown:
+        raise UserError(f"{jobs_file}: unknown column(s) {', '.join(unknown)}; the columns are {', '.join(COLUMNS)}")
+    if not rows:
+        raise UserError(f"{jobs_file} has no job rows (a header row plus one row per take)")
+    return rows
+
+
+@dataclass
+class BatchReport:
+    """What happened to every row: written files, or the error that stopped it."""
+    total: int
+    done: dict[int, list[Path]] = field(default_factory=dict)
+    failed: dict[int, str] = field(default_factory=dict)
+
+    def fail(self, number: int, out: str, message: str) -> None:
+        self.failed[number] = f"row {number} ({out or 'no output'}): {message}"
+        print(f"faces_hands: error: {self.failed[number]}")
+
+    def summary(self) -> str:
+        if not self.failed:
+            return f"all {self.total} rows written"
+        return f"{len(self.failed)} of {self.total} rows failed: " + "; ".join(self.failed.values())
+
+    def interrupted(self, number: int, partial: list[Path], rows: list[int]) -> str:
+        done = ", ".join(str(n) for n in self.done) or "none"
+        later = [n for n in rows if n > number]
+        rest = f"; rows {later[0]}-{later[-1]} did not run" if later else ""
+        if number in self.done:
+            return f"interrupted after row {number}: rows written completely: {done}{rest}"
+        part = ", ".join(str(p) for p in partial)
+        return (f"interrupted in row {number}: rows written completely: {done}; row {number} "
+                + (f"wrote only {part}" if partial else "wrote nothing") + rest)
+
+
+def _check_rows(rows: list[dict], fps, rig_path, jobs_path, overwrite, report: BatchReport) -> dict[int, dict]:
+    """Check every row before any work; a row that writes what an earlier row writes or reads fails."""
+    inputs = {n: Path(r["audio"].strip()) for n, r in enumerate(rows, start=2) if (r.get("audio") or "").strip()}
+    specs, claimed = {}, {}
+    for number, row in enumerate(rows, start=2):
+        try:
+            spec = checked_spec(row, fps, rig_path, jobs_path, overwrite)
+            for path in spec["outputs"]:
+                owner = next((n for p, n in claimed.items() if same_file(p, path)), None)
+                reader = next((n for n, source in inputs.items() if same_file(source, path)), None)
+                if owner is not None:
+                    raise UserError(f"writes {path}, which row {owner} writes too")
+                if reader is not None:
+                    raise UserError(f"writes {path}, which is the audio input of row {reader}")
+            claimed.update({path: number for path in spec["outputs"]})
+            specs[number] = spec
+        except UserError as error:
+            report.fail(number, (row.get("out") or "").strip(), str(error))
+    return specs
+
+
+def run_jobs(rows: list[dict], rig_path, fps, progress, run_line, *, jobs_path=None, fail_fast: bool = False,
+             overwrite: bool = False, prepare_rig=None) -> int:
+    """Bake every row with ``run_line(spec, rig_path, fps, progress)``; returns the exit code (1 if a row
+    failed). ``prepare_rig(tmp_folder)`` builds a shared rig once and returns its path (no ``--rig``)."""
+    report = BatchReport(total=len(rows))
+    specs = _check_rows(rows, fps, rig_path, jobs_path, overwrite, report)
+    if fail_fast and report.failed:
+        print(f"faces_hands: {report.summary()} (--fail-fast: nothing was run)")
+        return 1
+    with tempfile.TemporaryDirectory(prefix="fh-jobs-") as tmp:
+        if rig_path is None and specs and prepare_rig is not None:
+            rig_path = prepare_rig(tmp)
+        for number, spec in specs.items():
+            print(f"== row {number} ({len(report.done) + len(report.failed) + 1}/{len(rows)}): {spec['out']}")
+            mark = ledger_mark()
+            try:
+                raise_pending()
+                report.done[number] = run_line(spec, rig_path, fps, progress)
+                raise_pending()
+                print(written(report.done[number]))
+            except UserError as error:
+                report.fail(number, spec["out"], str(error))
+            except KeyboardInterrupt:
+                print(f"faces_hands: {report.interrupted(number, written_since(mark), list(specs))}")
+                raise
+            except Exception as error:  # a bug in one row must not cost the other rows
+                report.fail(number, spec["out"], f"internal error: {type(error).__name__}: {error}")
+            if fail_fast and report.failed:
+                break
+    print(f"faces_hands: {report.summary()}")
+    return 1 if report.failed else 0

@@ -1,0 +1,111 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Speak Text and Lip Sync Audio: speech takes on a face rig or a mesh with viseme shape keys."""
+from __future__ import annotations
+
+import bpy
+
+from ...faces_hands_addon.core.errors import UserError
+from ..common.jobs import Job
+from ..common.modal import JobOperator
+from ..common.paths import default_voice
+from ..common.timing import scene_fps
+from . import apply
+
+
+class SpeechJob(Job):
+    """Compute the take in steps (nothing written), then write it in ``commit``."""
+
+    def __init__(self, obj_name: str, make_take, audio_path: str | None, start_frame: int | None):
+        self.obj_name = obj_name
+        self.make_take = make_take
+        self.audio_path = audio_path
+        self.start_frame = start_frame
+        self.take = None
+
+    def step(self) -> float:
+        self.take = self.make_take()
+        return 1.0
+
+    def commit(self, context) -> str:
+        obj = bpy.data.objects[self.obj_name]
+        return apply.apply_take(context.scene, obj, self.take, start_frame=self.start_frame,
+                                    audio_path=self.audio_path)
+
+
+def _speech_settings(context):
+    return context.scene.faces_hands
+
+
+class _SpeechOperatorBase(JobOperator):
+    start_at_current: bpy.props.BoolProperty(
+        name="Start at Current Frame", default=False,
+        description="Start the speech at the current frame instead of the scene's start frame")
+
+    @classmethod
+    def poll(cls, context):
+        return context.active_object is not None
+
+    def _start_frame(self, context):
+        return context.scene.frame_current if self.start_at_current else context.scene.frame_start
+
+
+class FH_OT_speak_text(_SpeechOperatorBase, bpy.types.Operator):
+    """Speak text with espeak-ng and lip-sync the active face rig (or viseme shape keys) to it,
+    with Cohen-Massaro coarticulation; the audio goes into the sequencer"""
+
+    bl_idname = "faces_hands.speak_text"
+    bl_label = "Speak Text"
+    bl_options = {"REGISTER", "UNDO"}
+
+    text: bpy.props.StringProperty(name="Text", description="Text to speak (empty: use the panel's text)")
+
+    def make_job(self, context) -> Job:
+        from ...faces_hands_addon.speech.takes import take_from_text
+        settings = _speech_settings(context)
+        text = self.text or settings.speech_text
+        if settings.speech_text_block is not None and not self.text:
+            text = settings.speech_text_block.as_string()
+        obj = context.active_object
+        kind = apply.target_kind(obj)
+        if not text.strip():
+            raise UserError("there is no text to speak; type some into the Speech panel")
+        fps = scene_fps(context.scene)
+
+        def make():
+            return take_from_text(text, voice=settings.speech_voice or default_voice(), rate=settings.speech_rate,
+                                  pitch=settings.speech_pitch, volume=settings.speech_volume,
+                                  fps=fps, target=kind)
+        return SpeechJob(obj.name, make, None, self._start_frame(context))
+
+
+class FH_OT_lipsync_audio(_SpeechOperatorBase, bpy.types.Operator):
+    """Align recorded speech to its transcript (pocketsphinx) and lip-sync the active face rig
+    (or viseme shape keys) to it; the audio goes into the sequencer"""
+
+    bl_idname = "faces_hands.lipsync_audio"
+    bl_label = "Lip Sync Audio"
+    bl_options = {"REGISTER", "UNDO"}
+
+    filepath: bpy.props.StringProperty(name="Audio File", subtype="FILE_PATH",
+                                       description="WAV, FLAC or OGG (empty: use the panel's file)")
+    transcript: bpy.props.StringProperty(name="Transcript",
+                                         description="What is said (empty: use the panel's transcript)")
+
+    def make_job(self, context) -> Job:
+        from ...faces_hands_addon.speech.takes import take_from_audio
+        settings = _speech_settings(context)
+        path = bpy.path.abspath(self.filepath or settings.audio_path)
+        transcript = self.transcript or settings.audio_transcript
+        obj = context.active_object
+        kind = apply.target_kind(obj)
+        if not path:
+            raise UserError("choose an audio file in the Speech panel first")
+        fps = scene_fps(context.scene)
+
+        def make():
+            return take_from_audio(path, transcript or None, fps=fps, target=kind,
+                                   language=settings.speech_voice or default_voice())
+        return SpeechJob(obj.name, make, path, self._start_frame(context))
+
+
+CLASSES = [FH_OT_speak_text, FH_OT_lipsync_audio]

@@ -1,0 +1,119 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Speech takes in batch: one line (text or recorded audio) put on a face rig, simulated frame by frame
+and written as .glb/.fbx/.blend with the speech as a WAV beside it, or a CSV of many lines. Animation and
+audio come from the same phone timing and both start at time 0 (thesis 3.1.4)."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import bpy
+
+from ...faces_hands_addon.anim.timing import check_fps
+from ...faces_hands_addon.core.errors import UserError
+from ..common.blendfile import open_blend
+from ..common.export import save_or_export
+from ..common.outputs import atomic_output
+from ..common.rig_store import find_rig
+from ..common.targets import write_live_link
+from ..common.timing import scene_fps, set_scene_fps
+from ..face import services as face, sheet
+from ..face.objects import EXPORT_ROLES
+from . import apply
+
+__all__ = ["run_line", "shared_default_rig", "phoneme_cells"]
+
+
+def _prepare_rig(rig_path: str | None, fps: float, progress):
+    """The face rig of ``rig_path`` (or a new default head), with the scene at ``fps``."""
+    try:
+        check_fps(fps)
+    except UserError:
+        raise UserError(f"--fps {fps} is outside 1..240") from None
+    if rig_path:
+        open_blend(rig_path)
+        rig_obj = find_rig(bpy.data.objects, kind=face.KIND)
+    else:
+        rig_obj = face.build_default_rig_object(progress)
+    set_scene_fps(bpy.context.scene, fps)
+    return rig_obj
+
+
+def _bake_take(rig_obj, take, progress, animation: str = "weights") -> None:
+    """Put the take on the rig, then simulate every frame of it: as engine-ready weights of the fixed
+    targets, or as the exact per-frame cache (``animation="frames"``)."""
+    scene = bpy.context.scene
+    scene.frame_start = 0
+    report = apply.apply_take(scene, rig_obj, take, start_frame=0)
+    scene.frame_end = max(1, int(math.ceil(take.duration * scene_fps(scene))))
+    print(report)
+    print(face.bake(bpy.context, rig_obj, "animation", progress=progress, animation=animation))
+
+
+def phoneme_cells(take, limit: int = 40) -> list:
+    """(label, controls) at the centre of each spoken phone, for a contact sheet."""
+    cells = []
+    for phone in take.utterance.phones:
+        if phone.is_pause:
+            continue
+        centre = phone.start + phone.duration / 2
+        word = take.utterance.words[phone.word].text if phone.word is not None and phone.word >= 0 else ""
+        controls = {track.name: float(track.sample(centre)) for track in take.tracks}
+        cells.append((f"/{phone.phone}/ {word}".strip(), controls))
+    return cells[:limit]
+
+
+def _write_outputs(rig_obj, take, out: Path, sheet_path: Path | None, progress, source_audio=None,
+                   view: str = "front", extra_sheets=(), live_link: Path | None = None,
+                   write_wav: bool = True) -> list[Path]:
+    from ...faces_hands_addon.speech import load_audio, save_wav
+    paths = []
+    wav = out.with_suffix(".wav")
+    paths.append(save_or_export(bpy.context, rig_obj, out, EXPORT_ROLES))
+    if write_wav:
+        with atomic_output(wav) as tmp:
+            if source_audio is not None:
+                samples, rate = load_audio(source_audio)
+                save_wav(tmp, samples, rate)
+            else:
+                save_wav(tmp, take.utterance.samples, take.utterance.sample_rate)
+        paths.append(wav)
+    if live_link is not None:
+        paths.append(Path(write_live_link(rig_obj, bpy.context.scene, str(live_link))))
+    for path, sheet_view in ([(sheet_path, view)] if sheet_path is not None else []) + list(extra_sheets):
+        with atomic_output(path) as tmp:
+            sheet.render_sheet(bpy.context, rig_obj, phoneme_cells(take), tmp, columns=8, progress=progress,
+                               view=sheet_view)
+        paths.append(Path(path))
+    return paths
+
+
+def run_line(spec: dict, rig_path, fps, progress) -> list[Path]:
+    """One take, ``spec`` as ``batch.checked_spec`` returns it: out and text (+voice, rate) or audio
+    (+transcript, language in ``voice``)."""
+    from ...faces_hands_addon.speech.takes import take_from_audio, take_from_text
+    out = Path(spec["out"])
+    sheet_path = Path(spec["sheet"]) if spec.get("sheet") else None
+    for path in spec["outputs"]:
+        if path.exists():
+            print(f"replacing {path}")
+    if spec.get("audio"):
+        take = take_from_audio(spec["audio"], spec.get("transcript") or None, fps=fps, target="muscles",
+                               language=spec.get("voice") or "en-us", progress=progress)
+        for warning in take.utterance.warnings:
+            print(f"warning: {warning}")
+    else:
+        take = take_from_text(spec["text"], voice=spec.get("voice") or "en-us", rate=float(spec["rate"]),
+                              fps=fps, target="muscles", progress=progress)
+    rig_obj = _prepare_rig(rig_path, fps, progress)
+    _bake_take(rig_obj, take, progress, spec["animation"])
+    return _write_outputs(rig_obj, take, out, sheet_path, progress, spec.get("audio"), spec["view"],
+                          spec.get("extra_sheets", ()), spec.get("live_link"), spec.get("wav", True))
+
+
+def shared_default_rig(folder: str, fps: float, progress) -> str:
+    """Build the default head once into ``folder`` for every row of a jobs CSV; returns its path."""
+    _prepare_rig(None, fps, progress)
+    rig_path = str(Path(folder) / "rig.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=rig_path, copy=True, check_existing=False)
+    return rig_path

@@ -1,0 +1,101 @@
+#!/usr/bin/env python3
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Regenerate the contraction values of presets/hand/poses.json from target joint angles with the hand's
+own Solve Contractions (faces_hands_addon.hand.solve), then report how closely the simulated hand reaches
+each target. Run from the repository root: ``python3 scripts/hand_pose_presets.py`` (numpy + scipy)."""
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from faces_hands_addon.hand.rig import build_hand_rig  # noqa: E402
+from faces_hands_addon.hand.solve import solve_contractions  # noqa: E402
+
+FINGERS = ("index", "middle", "ring", "pinky")
+
+
+def finger(name, mcp, pip, dip, abd=0.0):
+    bone = f"{name}-finger-phalanx"
+    return {f"{bone}-proximal.flexion": mcp, f"{bone}-intermediate.flexion": pip, f"{bone}-distal.flexion": dip,
+            f"{bone}-proximal.abduction": abd}
+
+
+def thumb(cmc_flex, cmc_abd, mcp, ip):
+    return {"thumb-metacarpal.flexion": cmc_flex, "thumb-metacarpal.abduction": cmc_abd,
+            "thumb-phalanx-proximal.flexion": mcp, "thumb-phalanx-distal.flexion": ip}
+
+
+def curled(mcp=85, pip=100, dip=60):
+    out = {}
+    for f, a in zip(FINGERS, (-5, 0, -5, -25)):
+        out.update(finger(f, mcp, pip, dip, a))
+    return out
+
+
+TARGETS = {
+    "relaxed": ("the hand at rest, fingers gently curved", {
+        **{k: v for f, a in zip(FINGERS, (0, 0, 0, 0)) for k, v in finger(f, 20 + 5 * FINGERS.index(f),
+                                                                        25 + 5 * FINGERS.index(f), 10, a).items()},
+        **thumb(10, 5, 10, 10)}),
+    "fist": ("all fingers curled into the palm, thumb over them", {**curled(), **thumb(35, -20, 45, 40)}),
+    "point": ("index finger straight, the others curled", {**curled(), **finger("index", 0, 0, 0),
+                                                           **thumb(35, -20, 40, 35)}),
+    "thumbs_up": ("fist with the thumb stretched out", {**curled(), **thumb(-15, 15, 0, 0)}),
+    "pinch": ("thumb and index tips meet", {**finger("index", 45, 55, 25), **finger("middle", 30, 40, 20),
+                                             **finger("ring", 30, 45, 20), **finger("pinky", 30, 45, 20),
+                                             **thumb(45, 0, 20, 15)}),
+    "spread": ("fingers straight and spread apart", {**finger("index", 0, 0, 0, 25), **finger("middle", 0, 0, 0, 0),
+                                                     **finger("ring", 0, 0, 0, 12), **finger("pinky", 0, 0, 0, 14),
+                                                     **thumb(-15, 15, -5, 0)}),
+    "computer_graphics_scientist": ("the typical computer graphics scientist's pose (Fig. 6.20): the hand on a "
+                                    "mouse, fingers lightly curled, index ready to click", {
+        **finger("index", 25, 35, 15), **finger("middle", 30, 40, 15), **finger("ring", 35, 50, 20),
+        **finger("pinky", 40, 55, 25), **thumb(20, 10, 15, 10), "wrist.flexion": -15}),
+}
+
+MOTIONS = {
+    "wave_to_fist": ("opens the hand, makes a fist, opens again",
+                     [[0.0, "relaxed"], [0.6, "spread"], [1.4, "fist"], [2.2, "relaxed"]]),
+    "counting": ("points, pinches, gives a thumbs up", [[0.0, "relaxed"], [0.8, "point"], [1.6, "pinch"],
+                                                         [2.4, "thumbs_up"], [3.2, "relaxed"]]),
+    "showcase": ("relaxed, fist, point, thumbs up, spread, pinch, relaxed",
+                 [[0.0, "relaxed"], [0.8, "fist"], [1.6, "point"], [2.4, "thumbs_up"], [3.2, "spread"],
+                  [4.0, "pinch"], [4.8, "relaxed"]]),
+}
+
+
+def main() -> int:
+    rig = build_hand_rig()
+    sk = rig.skeleton
+    poses = {}
+    for name, (description, angles) in TARGETS.items():
+        q = np.zeros(sk.dof_count)
+        for key, value in angles.items():
+            bone, kind = key.rsplit(".", 1)
+            q[sk.dof(bone, kind)] = np.radians(value)
+        solution = solve_contractions(rig.pseudo, q)
+        contractions = {k: round(v, 3) for k, v in solution.contractions.items() if v >= 0.0005}
+        rig.settled({"ctrl": contractions}, 3.0)
+        error = np.degrees(np.abs(rig.pseudo.angles - np.clip(q, rig.pseudo.lower, rig.pseudo.upper)))
+        worst = int(np.argmax(error * rig.pseudo.dynamic))
+        print(f"{name:28s} residual {solution.residual:.3f} N m, mean error {error[rig.pseudo.dynamic].mean():.1f} deg,"
+              f" worst {sk.dof_names()[worst]} {error[worst]:.1f} deg")
+        poses[name] = {"description": description, "contractions": contractions}
+    doc = {"format": "faces_hands.hand_poses", "version": 1,
+           "description": "Whole-hand poses as pseudo-muscle contractions (0..1; muscles not named stay at 0), found "
+                          "by Solve Contractions from target joint angles (scripts/hand_pose_presets.py), and "
+                          "motions as [time in seconds, pose] keys, interpolated with Hermite splines (6.2.1).",
+           "poses": poses,
+           "motions": {k: {"description": d, "keys": keys} for k, (d, keys) in MOTIONS.items()}}
+    (ROOT / "presets" / "hand" / "poses.json").write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,118 @@
+"""Fit Face Rig on a mesh of different topology and proportions, through the installed add-on."""
+from __future__ import annotations
+
+
+import numpy as np
+import pytest
+
+from conftest import addon_module, run_fh
+
+
+def _engine():
+    from faces_hands_addon.fitting import testdata
+    return testdata
+
+
+def _head_object(bpy, scale=(1.0, 1.0, 1.0), location=(0.0, 0.0, 0.0)):
+    """A remeshed (different topology), non-uniformly scaled, sculpted copy of the template face."""
+    head = _engine().remeshed_face(0)
+    mesh = bpy.data.meshes.new("Artist Head")
+    mesh.from_pydata(head.vertices.tolist(), [], head.faces.tolist())
+    mesh.uv_layers.new(name="ArtistUV")
+    obj = bpy.data.objects.new("Artist Head", mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    obj.scale, obj.location = scale, location
+    obj.shape_key_add(name="Basis")
+    obj.shape_key_add(name="ArtistKey")
+    bpy.context.view_layer.objects.active = obj
+    obj.select_set(True)
+    bpy.context.view_layer.update()
+    return obj, head
+
+
+def _state(bpy):
+    return (sorted(o.name for o in bpy.data.objects), sorted(c.name for c in bpy.data.collections))
+
+
+def test_fit_rig_keeps_the_mesh_and_muscles_act(bpy_clean):
+    bpy = bpy_clean
+    obj, head = _head_object(bpy, scale=(2.0, 2.0, 2.0), location=(0.3, 0.0, 1.2))
+    before = np.array([v.co[:] for v in obj.data.vertices])
+    assert bpy.ops.faces_hands.locate_landmarks() == {"FINISHED"}
+    markers = next(c for c in obj.children if c.get("fh_part") == "landmarks")
+    assert len(markers.data.vertices) == 468
+    assert bpy.ops.faces_hands.fit_face_rig() == {"FINISHED"}
+    assert obj.get("fh_rig") and len(obj.data.vertices) == len(before)
+    assert np.allclose(np.array([v.co[:] for v in obj.data.vertices]), before), "the artist's mesh changed"
+    assert "ArtistUV" in obj.data.uv_layers and "ArtistKey" in obj.data.shape_keys.key_blocks
+    live = addon_module("operators.common.live")
+    rig = addon_module("operators.common.rig_store").get_rig(obj)
+    corner = rig.landmarks[291]  # left mouth corner (character's left = +X), world coordinates
+    world = np.array(obj.matrix_world)
+    local_corner = np.linalg.inv(world) @ np.r_[corner, 1.0]
+    nearest = int(np.argmin(np.linalg.norm(before - local_corner[:3], axis=1)))
+    obj["fh.ctrl.zygomaticus_major_L"] = 1.0
+    for _ in range(30):
+        live.live_step(bpy.context, obj)
+    moved = np.array([p.co[:] for p in obj.data.shape_keys.key_blocks["FH Simulation"].points])
+    shift_world = (world[:3, :3] @ (moved[nearest] - before[nearest]))
+    face_width = np.ptp(head.vertices[:, 0]) * 2.0
+    assert shift_world[2] > 0.01 * face_width and shift_world[0] > 0.0, shift_world
+    teeth = next(c for c in obj.children if c.get("fh_part") == "teeth_upper")
+    centre = np.array(teeth.matrix_world) @ np.r_[np.mean([v.co[:] for v in teeth.data.vertices], axis=0), 1]
+    low, high = (np.array(obj.matrix_world) @ np.r_[b, 1] for b in (before.min(0), before.max(0)))
+    assert np.all(centre[:3] > low[:3] - 0.05) and np.all(centre[:3] < high[:3] + 0.05), "teeth not in the head"
+
+
+@pytest.mark.parametrize("case", ["no_faces", "non_manifold", "facing_plus_y"])
+def test_fit_bad_input_is_a_clear_error_and_changes_nothing(bpy_clean, case):
+    bpy = bpy_clean
+    if case == "no_faces":
+        mesh = bpy.data.meshes.new("Points")
+        mesh.from_pydata([(0, 0, 0), (1, 0, 0), (0, 1, 0)], [(0, 1)], [])
+        obj = bpy.data.objects.new("Points", mesh)
+        bpy.context.scene.collection.objects.link(obj)
+        expected = "no faces"
+    elif case == "non_manifold":
+        mesh = bpy.data.meshes.new("Fins")
+        mesh.from_pydata([(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1)], [],
+                         [(0, 1, 2), (0, 1, 3), (0, 1, 4)])
+        obj = bpy.data.objects.new("Fins", mesh)
+        bpy.context.scene.collection.objects.link(obj)
+        expected = "manifold"
+    else:
+        obj, _ = _head_object(bpy)
+        obj.rotation_euler = (0.0, 0.0, np.pi)
+        expected = "-Y"
+    bpy.context.view_layer.objects.active = obj
+    bpy.context.view_layer.update()
+    state, keys = _state(bpy), sorted(obj.keys())
+    with pytest.raises(RuntimeError, match=expected):
+        bpy.ops.faces_hands.fit_face_rig()
+    assert _state(bpy) == state and sorted(obj.keys()) == keys
+
+
+def test_huge_mesh_is_refused(bpy_clean):
+    bpy = bpy_clean
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=720, y_subdivisions=720, size=0.3)
+    obj = bpy.context.active_object
+    assert len(obj.data.vertices) > 500_000
+    state = _state(bpy)
+    with pytest.raises(RuntimeError, match="500"):
+        bpy.ops.faces_hands.fit_face_rig()
+    assert _state(bpy) == state
+
+
+def test_cli_build_face_from_obj(installed, tmp_path, bpy_clean):
+    bpy = bpy_clean
+    obj, _ = _head_object(bpy)
+    path = tmp_path / "artist_head.obj"
+    bpy.ops.wm.obj_export(filepath=str(path), export_selected_objects=True, export_materials=False,
+                          forward_axis="NEGATIVE_Z", up_axis="Y")
+    out = tmp_path / "fitted.blend"
+    result = run_fh(installed, "build-face", "--mesh", path, "--out", out)
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert out.exists()
+    missing = run_fh(installed, "build-face", "--mesh", tmp_path / "nope.obj", "--out", tmp_path / "x.blend")
+    assert missing.returncode == 1 and "does not exist" in missing.stderr
+    assert not (tmp_path / "x.blend").exists()

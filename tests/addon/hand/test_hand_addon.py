@@ -1,0 +1,186 @@
+"""The hand rig through the installed add-on: objects, Table 6.4 limits, live step, Solve Contractions,
+bake + glTF/FBX export, retargeting onto the WebXR generic hand, operators refusing bad input."""
+from __future__ import annotations
+
+import json
+import math
+import struct
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from conftest import addon_module
+
+WEBXR_NAMES = {"wrist", "thumb-metacarpal", "thumb-phalanx-proximal", "thumb-phalanx-distal"} | {
+    f"{f}-finger-{p}" for f in ("index", "middle", "ring", "pinky")
+    for p in ("metacarpal", "phalanx-proximal", "phalanx-intermediate", "phalanx-distal")}
+
+
+def _build(bpy, side="right"):
+    assert bpy.ops.faces_hands.build_hand_rig(side=side) == {"FINISHED"}
+    obj = bpy.context.active_object
+    assert obj.get("fh_rig") and obj.get("fh_rig_kind") == "hand" and obj.type == "MESH"
+    return obj
+
+
+def _armature(obj):
+    return next(c for c in obj.children if c.get("fh_part") == "armature")
+
+
+def _evaluated(bpy, obj) -> np.ndarray:
+    graph = bpy.context.evaluated_depsgraph_get()
+    mesh = obj.evaluated_get(graph).to_mesh()
+    out = np.empty(len(mesh.vertices) * 3, np.float32)
+    mesh.vertices.foreach_get("co", out)
+    obj.evaluated_get(graph).to_mesh_clear()
+    return out.reshape(-1, 3)
+
+
+def _glb_json(path: Path) -> dict:
+    data = path.read_bytes()
+    return json.loads(data[20:20 + struct.unpack_from("<I", data, 12)[0]])
+
+
+def _state(bpy):
+    return {o.name: ({k: repr(o[k]) for k in o.keys() if k != "fh_rig_data"}, [list(r) for r in o.matrix_basis])
+            for o in bpy.data.objects}
+
+
+@pytest.mark.smoke
+def test_build_hand_objects_armature_limits_and_controls(bpy_clean):
+    bpy = bpy_clean
+    obj = _build(bpy)
+    arm = _armature(obj)
+    assert WEBXR_NAMES | {"forearm"} == {b.name for b in arm.data.bones}
+    assert len(obj.data.vertices) == pytest.approx(1500, rel=0.05) and len(obj.data.polygons) == pytest.approx(3000, rel=0.05)
+    assert obj.modifiers["Armature"].object == arm
+    bone_meshes = [o for o in bpy.data.objects if o.parent == arm and o.parent_type == "BONE"]
+    assert len(bone_meshes) == 21 and {o.parent_bone for o in bone_meshes} == {b.name for b in arm.data.bones}
+    limit = arm.pose.bones["index-finger-phalanx-proximal"].constraints["Table 6.4"]
+    assert (math.degrees(limit.min_x), math.degrees(limit.max_x)) == pytest.approx((-25, 90))
+    pip = arm.pose.bones["middle-finger-phalanx-intermediate"].constraints["Table 6.4"]
+    assert math.degrees(pip.max_x) == pytest.approx(110) and pip.min_y == pip.max_y == 0.0
+    fixed = arm.pose.bones["index-finger-metacarpal"].constraints["Table 6.4"]
+    assert fixed.min_x == fixed.max_x == fixed.min_z == fixed.max_z == 0.0        # index CMC is fixed
+    assert len([k for k in obj.keys() if k.startswith("fh.ctrl.")]) == 42
+    ui = obj.id_properties_ui("fh.ctrl.opponens_pollicis").as_dict()
+    assert (ui["min"], ui["max"]) == (0.0, 1.0) and "bulges" in ui["description"]
+
+
+def test_limit_rotation_keeps_a_posed_bone_inside_table_6_4(bpy_clean):
+    bpy = bpy_clean
+    arm = _armature(_build(bpy))
+    bone = arm.pose.bones["index-finger-phalanx-intermediate"]
+    bone.rotation_euler = (3.0, 0.0, 0.0)
+    bpy.context.view_layer.update()
+    rest = np.array(arm.data.bones[bone.name].matrix_local)[:3, :3]
+    posed = np.array(bone.matrix)[:3, :3]
+    angle = math.degrees(math.acos(np.clip((np.trace(rest.T @ posed) - 1) / 2, -1, 1)))
+    assert angle == pytest.approx(110.0, abs=0.5)
+
+
+def test_live_step_curls_a_finger_towards_the_palm(bpy_clean):
+    bpy = bpy_clean
+    obj = _build(bpy)
+    live = addon_module("operators.common.live")
+    objects = addon_module("operators.hand.objects")
+    rest = _evaluated(bpy, obj)
+    obj["fh.ctrl.flexor_digitorum_profundus_middle"] = 0.4
+    for _ in range(20):
+        live.live_step(bpy.context, obj, objects.push_hand_pose, dt=1 / 30)
+    moved = _evaluated(bpy, obj)
+    tip = int(np.argmin(rest[:, 2]))                       # the middle finger's tip hangs lowest
+    assert moved[tip, 0] - rest[tip, 0] > 0.03             # towards the palm (+X), > 3 cm
+    assert abs(_armature(obj).pose.bones["middle-finger-phalanx-proximal"].rotation_euler.x) > 0.3
+
+
+def test_solve_contractions_for_a_posed_armature(bpy_clean):
+    bpy = bpy_clean
+    obj = _build(bpy)
+    arm = _armature(obj)
+    for finger in ("index", "middle", "ring"):
+        arm.pose.bones[f"{finger}-finger-phalanx-proximal"].rotation_euler.x = math.radians(50)
+        arm.pose.bones[f"{finger}-finger-phalanx-intermediate"].rotation_euler.x = math.radians(60)
+    bpy.context.view_layer.objects.active = obj
+    assert bpy.ops.faces_hands.solve_contractions() == {"FINISHED"}
+    values = {k[8:]: obj[k] for k in obj.keys() if k.startswith("fh.ctrl.")}
+    assert sum(v > 0.01 for v in values.values()) >= 3 and all(0 <= v <= 1 for v in values.values())
+    assert max(values[f"flexor_digitorum_{m}_middle"] for m in ("profundus", "superficialis")) > 0.01
+    assert arm.pose.bones["index-finger-phalanx-proximal"].rotation_euler.x == 0.0
+
+
+def test_bake_and_export_glb_and_fbx(bpy_clean, tmp_path):
+    bpy = bpy_clean
+    obj = _build(bpy)
+    services = addon_module("operators.hand.services")
+    bpy.context.scene.render.fps = 30
+    first, last = services.animate(bpy.context, obj, "wave_to_fist")
+    assert (first, last) == (1, 67)
+    report = services.bake(bpy.context, obj)
+    assert "67 frames" in report
+    keys = [k.name for k in obj.data.shape_keys.key_blocks if k.name.startswith("FH.")]
+    assert 20 <= len(keys) <= 40 and sum(k.startswith("FH.bulge.") for k in keys) == 9
+    glb = services.export(bpy.context, obj, str(tmp_path / "hand.glb"))
+    doc = _glb_json(glb)
+    assert len(doc["skins"]) == 1
+    joint_names = {doc["nodes"][j]["name"] for j in doc["skins"][0]["joints"]}
+    assert WEBXR_NAMES <= joint_names
+    mesh = next(m for m in doc["meshes"] if "targets" in m["primitives"][0])
+    assert len(mesh["primitives"][0]["targets"]) == len(keys) and mesh["extras"]["targetNames"] == keys
+    channels = [c for a in doc["animations"] for c in a["channels"]]
+    assert {c["target"]["path"] for c in channels} >= {"rotation", "weights"}
+    rotated = {doc["nodes"][c["target"]["node"]]["name"] for c in channels if c["target"]["path"] == "rotation"}
+    assert "index-finger-phalanx-proximal" in rotated
+    fbx = services.export(bpy.context, obj, str(tmp_path / "hand.fbx"))
+    assert fbx.stat().st_size > 100_000
+
+
+def test_retarget_onto_the_webxr_generic_hand(bpy_clean, installed):
+    bpy = bpy_clean
+    obj = _build(bpy)
+    services = addon_module("operators.hand.services")
+    services.animate(bpy.context, obj, "fist")
+    services.bake(bpy.context, obj)
+    before = {o.name for o in bpy.data.objects}
+    bpy.ops.import_scene.gltf(filepath=str(installed.extension_dir / "assets/webxr/generic-hand/right.glb"))
+    target = next(o for o in bpy.data.objects if o.name not in before and o.type == "ARMATURE")
+    count = services.retarget(bpy.context, obj, target)
+    assert count >= 20
+    scene = bpy.context.scene
+    scene.frame_set(scene.frame_end)
+    source = _armature(obj).pose.bones["middle-finger-phalanx-intermediate"]
+    bone = target.pose.bones["middle-finger-phalanx-intermediate"]
+    def turned(pb, arm):
+        rest = np.array(arm.matrix_world)[:3, :3] @ np.array(pb.bone.matrix_local)[:3, :3]
+        posed = np.array(arm.matrix_world)[:3, :3] @ np.array(pb.matrix)[:3, :3]
+        return posed @ rest.T
+    assert np.allclose(turned(bone, target), turned(source, _armature(obj)), atol=1e-4)
+    assert math.degrees(math.acos((np.trace(turned(bone, target)) - 1) / 2)) > 60     # the finger curled
+
+
+def test_a_left_hand_is_mirrored_and_curls_the_same_way(bpy_clean):
+    bpy = bpy_clean
+    obj = _build(bpy, "left")
+    live = addon_module("operators.common.live")
+    objects = addon_module("operators.hand.objects")
+    rest = _evaluated(bpy, obj)
+    assert rest[int(np.argmin(rest[:, 1])), 0] < -0.02        # the thumb tip: at +X on a right hand, -X here
+    obj["fh.ctrl.flexor_digitorum_profundus_middle"] = 0.4
+    for _ in range(20):
+        live.live_step(bpy.context, obj, objects.push_hand_pose, dt=1 / 30)
+    tip = int(np.argmin(rest[:, 2]))
+    assert rest[tip, 0] - _evaluated(bpy, obj)[tip, 0] > 0.03     # its palm faces -X
+
+
+def test_operators_refuse_bad_input_and_leave_the_scene(bpy_clean, tmp_path):
+    bpy = bpy_clean
+    obj = _build(bpy)
+    bpy.context.view_layer.objects.active = obj
+    before = _state(bpy)
+    for call, message in ((lambda: bpy.ops.faces_hands.build_hand_from_photo(), "load a hand photo"),
+                          (lambda: bpy.ops.faces_hands.solve_contractions(), "pose the hand first"),
+                          (lambda: bpy.ops.faces_hands.export_hand(filepath=str(tmp_path / "hand.obj")), ".glb")):
+        with pytest.raises(RuntimeError, match=message):        # the operator's ERROR report, in background mode
+            call()
+    assert _state(bpy) == before and not (tmp_path / "hand.obj").exists()

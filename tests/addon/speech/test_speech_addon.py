@@ -1,0 +1,196 @@
+"""Speak Text / Lip Sync Audio through the installed add-on, on a mesh with viseme shape keys."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+# Ready Player Me spelling (viseme_I/O/U) on purpose: lip sync must find them as aliases of the Oculus
+# names viseme_ih/oh/ou.
+VISEMES = ["viseme_sil", "viseme_PP", "viseme_FF", "viseme_TH", "viseme_DD", "viseme_kk", "viseme_CH",
+           "viseme_SS", "viseme_nn", "viseme_RR", "viseme_aa", "viseme_E", "viseme_I", "viseme_O", "viseme_U"]
+DATA = Path(__file__).resolve().parents[2] / "data" / "speech"
+
+
+def _viseme_mesh(bpy):
+    bpy.ops.mesh.primitive_plane_add()
+    obj = bpy.context.active_object
+    obj.shape_key_add(name="Basis")
+    for name in VISEMES + ["smile"]:
+        obj.shape_key_add(name=name)
+    return obj
+
+
+def _strip_start(strip):
+    """Where a strip's content starts (Blender 5.2 renamed ``frame_start`` to ``content_start``)."""
+    return strip.content_start if hasattr(strip, "content_start") else strip.frame_start
+
+
+def _strip_duration(strip):
+    if hasattr(strip, "left_handle"):
+        return strip.right_handle - strip.left_handle
+    return strip.frame_final_duration
+
+
+def _curves(id_block):
+    """Data path -> F-curve of ``id_block``'s action (the layered-action API)."""
+    anim = id_block.animation_data
+    if anim is None or anim.action is None:
+        return {}
+    bag = anim.action.layers[0].strips[0].channelbag(anim.action_slot)
+    return {fc.data_path: fc for fc in bag.fcurves}
+
+
+def _viseme_curves(obj):
+    return _curves(obj.data.shape_keys)
+
+
+def test_speak_text_drives_visemes_and_adds_sound(bpy_clean):
+    bpy = bpy_clean
+    scene = bpy.context.scene
+    scene.render.fps, scene.render.fps_base = 30000, 1001  # 29.97
+    scene.frame_start = 10
+    obj = _viseme_mesh(bpy)
+    key = obj.data.shape_keys
+    key.key_blocks["smile"].value = 0.3
+    key.key_blocks["smile"].keyframe_insert("value", frame=5)  # an artist's key that must survive
+    assert bpy.ops.faces_hands.speak_text(text="Can you show me the way to the conference hall?") == {"FINISHED"}
+    curves = _viseme_curves(obj)
+    viseme_curves = [p for p in curves if "viseme_" in p]
+    assert len(viseme_curves) == 15 and 'key_blocks["viseme_U"].value' in curves
+    assert 'key_blocks["smile"].value' in curves
+    strips = [s for s in scene.sequence_editor.strips if s.name.startswith("FH Speech")]
+    assert len(strips) == 1 and _strip_start(strips[0]) == 10 and strips[0].sound.packed_file is not None
+    fps = 30000 / 1001
+    pp = curves['key_blocks["viseme_PP"].value']
+    frames = np.array([k.co[0] for k in pp.keyframe_points])
+    duration_frames = _strip_duration(strips[0])
+    assert frames[0] == pytest.approx(10, abs=1.0)
+    assert abs(frames[-1] - (10 + duration_frames)) < 0.1 * fps
+    values = np.array([k.co[1] for k in pp.keyframe_points])
+    assert values.max() > 0.5, "the /p/ /m/ of 'me' and 'show me' never reach the PP viseme"
+    # run again: the take is replaced, not stacked; the artist's key survives
+    assert bpy.ops.faces_hands.speak_text(text="Hello there.") == {"FINISHED"}
+    curves = _viseme_curves(obj)
+    assert len([p for p in curves if "viseme_" in p]) == 15
+    assert 'key_blocks["smile"].value' in curves
+    assert len([s for s in scene.sequence_editor.strips if s.name.startswith("FH Speech")]) == 1
+
+
+def test_speak_empty_text_changes_nothing(bpy_clean):
+    bpy = bpy_clean
+    obj = _viseme_mesh(bpy)
+    bpy.context.scene.faces_hands.speech_text = "   "
+    with pytest.raises(RuntimeError, match="no text"):
+        bpy.ops.faces_hands.speak_text(text="")
+    assert obj.data.shape_keys.animation_data is None
+    assert bpy.context.scene.sequence_editor is None or len(bpy.context.scene.sequence_editor.strips) == 0
+
+
+def test_target_without_visemes_is_a_clear_error(bpy_clean):
+    bpy = bpy_clean
+    bpy.ops.mesh.primitive_cube_add()
+    with pytest.raises(RuntimeError, match="viseme shape keys"):
+        bpy.ops.faces_hands.speak_text(text="Hello.")
+
+
+def test_lipsync_audio_file(bpy_clean):
+    bpy = bpy_clean
+    wav = next(DATA.glob("*.wav"))
+    transcript = wav.with_suffix(".txt").read_text().strip()
+    obj = _viseme_mesh(bpy)
+    assert bpy.ops.faces_hands.lipsync_audio(filepath=str(wav), transcript=transcript) == {"FINISHED"}
+    assert len([p for p in _viseme_curves(obj) if "viseme_" in p]) == 15
+    strip = bpy.context.scene.sequence_editor.strips[0]
+    assert Path(bpy.path.abspath(strip.sound.filepath)).resolve() == wav.resolve()
+
+
+def test_corrupt_audio_changes_nothing(bpy_clean, tmp_path):
+    bpy = bpy_clean
+    bad = tmp_path / "broken.wav"
+    bad.write_bytes(b"RIFF\x00\x00\x00\x00WAVEfmt garbage")
+    obj = _viseme_mesh(bpy)
+    with pytest.raises(RuntimeError):
+        bpy.ops.faces_hands.lipsync_audio(filepath=str(bad), transcript="hello")
+    assert obj.data.shape_keys.animation_data is None
+
+
+def _speech_curves(rig):
+    return _curves(rig)
+
+
+def test_speak_on_face_rig_writes_speech_layer_and_keeps_artist_keys(bpy_clean):
+    bpy = bpy_clean
+    scene = bpy.context.scene
+    scene.render.fps, scene.render.fps_base = 25, 1.0
+    scene.frame_start = 1
+    assert bpy.ops.faces_hands.build_face_rig() == {"FINISHED"}
+    rig = bpy.context.active_object
+    rig["fh.ctrl.zygomaticus_major_L"] = 0.4
+    rig.keyframe_insert('["fh.ctrl.zygomaticus_major_L"]', frame=3)
+    assert bpy.ops.faces_hands.speak_text(text="Peter picked a pepper.") == {"FINISHED"}
+    curves = _speech_curves(rig)
+    speech = [p for p in curves if p.startswith('["fh.speech.')]
+    assert '["fh.speech.jaw_open"]' in speech and '["fh.speech.orbicularis_oris_upper"]' in speech
+    assert '["fh.ctrl.zygomaticus_major_L"]' in curves
+    first = curves['["fh.speech.jaw_open"]'].keyframe_points[0].co[0]
+    assert first == pytest.approx(1.0, abs=0.5)
+    upper = np.array([k.co[1] for k in curves['["fh.speech.orbicularis_oris_upper"]'].keyframe_points])
+    assert upper.max() > 0.5, "the /p/ closures never contract the lips"
+    count = len(speech)
+    assert bpy.ops.faces_hands.speak_text(text="Hello.") == {"FINISHED"}
+    curves = _speech_curves(rig)
+    assert len([p for p in curves if p.startswith('["fh.speech.')]) == count
+    assert '["fh.ctrl.zygomaticus_major_L"]' in curves
+    assert len(scene.sequence_editor.strips) == 1
+
+
+def test_zero_length_audio_is_a_clear_error(bpy_clean, tmp_path):
+    bpy = bpy_clean
+    import wave
+    empty = tmp_path / "empty.wav"
+    with wave.open(str(empty), "wb") as handle:
+        handle.setnchannels(1)
+        handle.setsampwidth(2)
+        handle.setframerate(16000)
+    obj = _viseme_mesh(bpy)
+    with pytest.raises(RuntimeError, match="(?i)empty|no audio|too short|zero"):
+        bpy.ops.faces_hands.lipsync_audio(filepath=str(empty), transcript="hello")
+    assert obj.data.shape_keys.animation_data is None
+
+
+def _glb_animation_seconds(path):
+    import json
+    import struct
+    data = path.read_bytes()
+    length = struct.unpack_from("<I", data, 12)[0]
+    doc = json.loads(data[20:20 + length])
+    times = [doc["accessors"][s["input"]] for a in doc.get("animations", []) for s in a["samplers"]]
+    return min(t["min"][0] for t in times), max(t["max"][0] for t in times)
+
+
+def test_cli_speak_jobs_csv_glb_and_wav_start_together(installed, tmp_path):
+    import soundfile
+    from conftest import run_fh
+    jobs = tmp_path / "lines.csv"
+    jobs.write_text("out,text,voice\n"
+                    f"{tmp_path / 'hello.glb'},Hello there.,en-us\n"
+                    f"{tmp_path / 'hallo.fbx'},Guten Tag.,de\n")
+    result = run_fh(installed, "speak", "--jobs", jobs, "--fps", "25")
+    assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
+    for name in ("hello.glb", "hello.wav", "hallo.fbx", "hallo.wav"):
+        assert (tmp_path / name).exists(), name
+    start, end = _glb_animation_seconds(tmp_path / "hello.glb")
+    audio = soundfile.info(str(tmp_path / "hello.wav"))
+    assert start == pytest.approx(0.0, abs=1e-6)
+    assert abs(end - audio.duration) <= 1.0 / 25 + 1e-6, (end, audio.duration)
+
+
+def test_cli_speak_bad_jobs_file_writes_nothing(installed, tmp_path):
+    from conftest import run_fh
+    jobs = tmp_path / "lines.csv"
+    jobs.write_text("out,txt\n" f"{tmp_path / 'a.glb'},Hello.\n")              # a misspelt column
+    result = run_fh(installed, "speak", "--jobs", jobs)
+    assert result.returncode == 1 and "unknown column(s) txt" in result.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["lines.csv"]

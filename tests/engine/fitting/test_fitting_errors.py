@@ -1,0 +1,71 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Landmark location refuses unusable meshes with a UserError that says what to do (CONTRIBUTING.md)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.spatial import ConvexHull
+
+from faces_hands_addon import UserError
+from faces_hands_addon.core import geometry
+from faces_hands_addon.fitting import locate_landmarks, project_to_surface, testdata
+
+TRIANGLE = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+
+
+@pytest.fixture(scope="module")
+def mask():
+    return testdata.remeshed_face(0, spacing=0.006)
+
+
+@pytest.mark.parametrize("vertices, faces, message", [
+    (TRIANGLE, np.zeros((0, 3), np.int64), "no faces"),
+    (TRIANGLE, np.array([[0, 1, 2, 0]]), "must be triangles"),
+    (TRIANGLE, np.array([[0, 1, 3]]), "outside 0..2"),
+    (np.array([[0.0, np.nan, 0.0], [1, 0, 0], [0, 0, 1]]), np.array([[0, 1, 2]]), "NaN"),
+    (np.ones((3, 3)), np.array([[0, 1, 2]]), "degenerate"),
+    (np.array([[0.0, 0, 0], [1, 0, 0], [2, 0, 0]]), np.array([[0, 1, 2]]), "zero area"),
+    (np.zeros((3, 2)), np.array([[0, 1, 2]]), "(N, 3)"),
+])
+def test_bad_meshes(vertices, faces, message):
+    with pytest.raises(UserError, match=message.replace("(", r"\(").replace(")", r"\)")):
+        locate_landmarks(vertices, faces)
+    with pytest.raises(UserError):
+        project_to_surface(np.zeros((1, 3)), vertices, faces)
+
+
+def test_too_large_mesh_names_the_limit(monkeypatch, mask):
+    monkeypatch.setattr(geometry, "MAX_VERTICES", 100)
+    with pytest.raises(UserError, match="at most 100 vertices"):
+        locate_landmarks(mask.vertices, mask.faces)
+
+
+@pytest.mark.parametrize("facing, message", [
+    ("+Y", r"seems to face \+Y; rotate it to face -Y \(Blender's front view\)"),
+    ("+X", r"seems to face \+X; rotate it -90 degrees about Z"),
+    ("+Z", r"face-up .*Y-up import"),
+])
+def test_mesh_not_facing_minus_y(facing, message, mask):
+    turned = testdata.rotated_head(mask, facing)
+    with pytest.raises(UserError, match=message):
+        locate_landmarks(turned.vertices, turned.faces)
+
+
+def test_full_head_facing_plus_y():
+    head = testdata.rotated_head(testdata.full_head(0, spacing=0.008, body_spacing=0.03), "+Y")
+    with pytest.raises(UserError, match=r"seems to face \+Y"):
+        locate_landmarks(head.vertices, head.faces)
+
+
+def test_not_a_face():
+    points = np.random.default_rng(0).normal(size=(400, 3))
+    points /= np.linalg.norm(points, axis=1, keepdims=True)
+    with pytest.raises(UserError, match="could not find a face"):
+        locate_landmarks(points, ConvexHull(points).simplices)
+
+
+def test_failed_fit_reports_the_limit(mask):
+    rng = np.random.default_rng(0)
+    crumpled = mask.vertices + rng.normal(0.0, 0.08 * mask.face_width, mask.vertices.shape)
+    with pytest.raises(UserError, match=r"could not fit the face template .*limit 4 %"):
+        locate_landmarks(crumpled, mask.faces)
