@@ -15,7 +15,7 @@ OBJECT_SECTIONS = (
     ("Face", ("faces_hands.locate_landmarks", "faces_hands.fit_face_rig", "faces_hands.live_simulation",
               "faces_hands.reset_controls", "faces_hands.bake_face", "faces_hands.export_face")),
     ("Speech", ("faces_hands.speak_text", "faces_hands.lipsync_audio", "faces_hands.transfer_animation",
-                "faces_hands.export_live_link")),
+                "faces_hands.export_live_link", "faces_hands.export_mouth_cues")),
     ("Morphable Face", ("faces_hands.morph_make_animatable", "faces_hands.morph_build_model",
                         "faces_hands.morph_save_face", "faces_hands.morph_load_face")),
     ("Hand", ("faces_hands.load_hand_photo", "faces_hands.build_hand_from_photo", "faces_hands.apply_hand_pose",
@@ -26,7 +26,8 @@ OBJECT_SECTIONS = (
 
 EXPORT_ITEMS = (("faces_hands.export_face", "Faces & Hands Face (.glb, .fbx)"),
                 ("faces_hands.export_hand", "Faces & Hands Hand (.glb, .fbx)"),
-                ("faces_hands.export_live_link", "Live Link Face ARKit Weights (.csv)"))
+                ("faces_hands.export_live_link", "Live Link Face ARKit Weights (.csv)"),
+                ("faces_hands.export_mouth_cues", "Rhubarb Mouth Cues (.tsv, .json)"))
 
 
 class FH_MT_add(bpy.types.Menu):

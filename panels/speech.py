@@ -34,6 +34,8 @@ class FH_PT_speech(SidebarPanel, bpy.types.Panel):
         box.prop(settings, "audio_path", text="")
         box.prop(settings, "audio_transcript", text="")
         box.operator("faces_hands.lipsync_audio", icon="SPEAKER")
+        if obj is not None and obj.get("fh_mouth_cues"):
+            layout.operator("faces_hands.export_mouth_cues", icon="EXPORT")
 
 
 CLASSES = [FH_PT_speech]

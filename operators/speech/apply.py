@@ -29,6 +29,8 @@ from ..common.rig_store import is_rig
 from ..common.timing import scene_fps, seconds_to_frames
 
 STRIP_PREFIX = "FH Speech"
+#: object property holding the last take's mouth cues (Rhubarb shapes), for File > Export > Mouth Cues
+CUES_PROPERTY = "fh_mouth_cues"
 VISEME_PATH = 'key_blocks["{}"].value'
 
 
@@ -82,6 +84,8 @@ def _remove_previous_take(scene, obj, owner, take_target: str) -> None:
     else:
         names = [alias for v in VISEMES for alias in (v, *VISEME_ALIASES.get(v, ()))]
         fcurves.remove_fcurves(owner, tuple(VISEME_PATH.format(v) for v in names))
+    if CUES_PROPERTY in obj:
+        del obj[CUES_PROPERTY]
     editor = scene.sequence_editor
     if editor is not None:
         for strip in [s for s in editor.strips if s.name.startswith(f"{STRIP_PREFIX} {obj.name}")]:
@@ -127,6 +131,11 @@ def _add_sound_strip(scene, obj, take, start_frame: int, audio_path: str | None)
             os.rmdir(tmp_dir)
 
 
+def _cues_json(take) -> str:
+    from ...faces_hands_addon.speech.cues import cues_text, mouth_cues
+    return cues_text(mouth_cues(take.utterance.phones, take.duration), "json", "", take.duration)
+
+
 def apply_take(scene, obj, take, *, start_frame: int | None = None, audio_path: str | None = None,
                add_sound: bool = True) -> str:
     """Write ``take`` onto ``obj`` (replacing its previous take); returns a one-line report."""
@@ -146,6 +155,7 @@ def apply_take(scene, obj, take, *, start_frame: int | None = None, audio_path: 
         fcurves.write_curves(owner, curves, action_name=f"{obj.name} Speech", group="Speech")
         if add_sound:
             _add_sound_strip(scene, obj, take, start, audio_path)
+        obj[CUES_PROPERTY] = _cues_json(take)
     except Exception:
         _remove_previous_take(scene, obj, owner, take.target)
         raise

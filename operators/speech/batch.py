@@ -29,7 +29,8 @@ from ..face.sheet import VIEWS
 __all__ = ["OUT_SUFFIXES", "COLUMNS", "checked_spec", "read_jobs", "run_jobs"]
 
 OUT_SUFFIXES = (".glb", ".fbx", ".blend")
-COLUMNS = ("out", "text", "audio", "transcript", "voice", "rate", "sheet", "view", "animation", "live_link")
+COLUMNS = ("out", "text", "audio", "transcript", "voice", "rate", "sheet", "view", "animation", "live_link",
+           "cues")
 ANIMATIONS = ("weights", "frames")
 
 
@@ -78,6 +79,7 @@ def checked_spec(raw: dict, fps: float, rig_path=None, jobs_path=None, overwrite
     live_link = _optional_path(spec, "live_link", (".csv",))
     if live_link is not None and animation != "weights":
         raise UserError("a Live Link CSV needs the weights animation (leave out --animation frames)")
+    cues = _optional_path(spec, "cues", (".tsv", ".txt", ".json"))
     rate = _number("rate", spec.get("rate"), 175, RATE_RANGE)
     if audio:
         seconds = audio_header(audio).duration          # exists, readable, within the length limit
@@ -89,13 +91,14 @@ def checked_spec(raw: dict, fps: float, rig_path=None, jobs_path=None, overwrite
                         "cache bakes; use the weights animation (the default), which has no frame limit")
     wav = out.with_suffix(".wav")
     outputs = {"the output": out, "the WAV beside the output": wav,
-               "the sheet": _optional_path(spec, "sheet", (".png",)), "the Live Link CSV": live_link}
+               "the sheet": _optional_path(spec, "sheet", (".png",)), "the Live Link CSV": live_link,
+               "the mouth cues": cues}
     refuse_collisions(outputs, {"audio": Path(audio) if audio else None,
                                 "rig": Path(rig_path) if rig_path else None,
                                 "jobs file": Path(jobs_path) if jobs_path else None})
     _check_wav(wav, overwrite)
     spec.update(out=str(out), text=text, audio=audio or None, rate=rate, animation=animation, view=view,
-                live_link=live_link, outputs=[p for p in outputs.values() if p is not None])
+                live_link=live_link, cues=cues, outputs=[p for p in outputs.values() if p is not None])
     return spec
 
 

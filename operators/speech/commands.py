@@ -20,8 +20,11 @@ def _common_arguments(parser) -> None:
                         help="engine-ready weights of the ARKit/viseme/emotion targets (default), or the exact "
                              "per-frame cache (frames: one shape key per frame, for offline renders)")
     parser.add_argument("--live-link", help="also write the ARKit weights as a Live Link Face CSV (.csv)")
+    parser.add_argument("--cues", help="also write the mouth cues in Rhubarb Lip Sync's format (shapes A-H, X): "
+                                       ".tsv or .json")
     parser.add_argument("--jobs", help="CSV with one row per take (columns: out, and text or audio "
-                                       "[+ transcript]; optional voice, rate, sheet, view, animation, live_link); "
+                                       "[+ transcript]; optional voice, rate, sheet, view, animation, live_link, "
+                                       "cues); "
                                        "replaces the single-line options")
     parser.add_argument("--fail-fast", action="store_true",
                         help="with --jobs: stop at the first failing row (default: report it and go on)")
@@ -57,7 +60,7 @@ class Speak:
             raise UserError("give --text and --out (or --jobs FILE.csv)")
         return _run(args, {"text": args.text, "voice": args.voice, "rate": args.rate, "out": args.out,
                            "sheet": args.sheet, "view": args.view, "animation": args.animation,
-                           "live_link": args.live_link}, progress)
+                           "live_link": args.live_link, "cues": args.cues}, progress)
 
 
 class LipSync:
@@ -78,7 +81,7 @@ class LipSync:
             raise UserError("give --audio and --out (or --jobs FILE.csv)")
         return _run(args, {"audio": args.audio, "transcript": args.transcript, "voice": args.language,
                            "out": args.out, "sheet": args.sheet, "view": args.view, "animation": args.animation,
-                           "live_link": args.live_link}, progress)
+                           "live_link": args.live_link, "cues": args.cues}, progress)
 
 
 COMMANDS = [Speak, LipSync]

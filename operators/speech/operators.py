@@ -5,6 +5,8 @@ from __future__ import annotations
 import bpy
 
 from ...faces_hands_addon.core.errors import UserError
+from ..common.file_operators import SaveFileOperator
+from ..common.hardened import HardenedOperator
 from ..common.jobs import Job
 from ..common.modal import JobOperator
 from ..common.paths import default_voice
@@ -108,4 +110,40 @@ class FH_OT_lipsync_audio(_SpeechOperatorBase, bpy.types.Operator):
         return SpeechJob(obj.name, make, path, self._start_frame(context))
 
 
-CLASSES = [FH_OT_speak_text, FH_OT_lipsync_audio]
+class FH_OT_export_mouth_cues(HardenedOperator, SaveFileOperator, bpy.types.Operator):
+    """Write the active object's last speech take as mouth cues in Rhubarb Lip Sync's format (shapes A-H and
+    X; .tsv or .json), for 2D pipelines that read Rhubarb's files"""
+
+    bl_idname = "faces_hands.export_mouth_cues"
+    bl_label = "Export Mouth Cues (Rhubarb)"
+    bl_options = {"REGISTER"}
+
+    file_suffix = ".tsv"
+    filter_glob: bpy.props.StringProperty(default="*.tsv;*.json;*.txt", options={"HIDDEN"},
+                                          description="File types the file browser shows")
+
+    @classmethod
+    def poll(cls, context):
+        return context.active_object is not None
+
+    def run(self, context):
+        import json
+        from pathlib import Path
+
+        from ...faces_hands_addon.speech.cues import MouthCue, cue_format, cues_text
+        from ..common.outputs import atomic_output
+        obj = context.active_object
+        stored = obj.get(apply.CUES_PROPERTY)
+        if not stored:
+            raise UserError(f"'{obj.name}' has no speech take: use Speak Text or Lip Sync Audio first")
+        path = Path(bpy.path.abspath(self.filepath))
+        fmt = cue_format(path)
+        document = json.loads(stored)
+        cues = [MouthCue(c["start"], c["end"], c["value"]) for c in document["mouthCues"]]
+        with atomic_output(path) as tmp:
+            Path(tmp).write_text(cues_text(cues, fmt, "", document["metadata"]["duration"]), encoding="utf-8")
+        self.report({"INFO"}, f"Wrote {len(cues)} mouth cues to {path}")
+        return {"FINISHED"}
+
+
+CLASSES = [FH_OT_speak_text, FH_OT_lipsync_audio, FH_OT_export_mouth_cues]

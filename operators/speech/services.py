@@ -65,7 +65,7 @@ def phoneme_cells(take, limit: int = 40) -> list:
 
 def _write_outputs(rig_obj, take, out: Path, sheet_path: Path | None, progress, source_audio=None,
                    view: str = "front", extra_sheets=(), live_link: Path | None = None,
-                   write_wav: bool = True) -> list[Path]:
+                   write_wav: bool = True, cues: Path | None = None) -> list[Path]:
     from ...faces_hands_addon.speech import load_audio, save_wav
     paths = []
     wav = out.with_suffix(".wav")
@@ -80,12 +80,24 @@ def _write_outputs(rig_obj, take, out: Path, sheet_path: Path | None, progress, 
         paths.append(wav)
     if live_link is not None:
         paths.append(Path(write_live_link(rig_obj, bpy.context.scene, str(live_link))))
+    if cues is not None:
+        paths.append(write_cues(take, Path(cues), wav.name if write_wav else ""))
     for path, sheet_view in ([(sheet_path, view)] if sheet_path is not None else []) + list(extra_sheets):
         with atomic_output(path) as tmp:
             sheet.render_sheet(bpy.context, rig_obj, phoneme_cells(take), tmp, columns=8, progress=progress,
                                view=sheet_view)
         paths.append(Path(path))
     return paths
+
+
+def write_cues(take, path: Path, sound_file: str = "") -> Path:
+    """The take's mouth cues in Rhubarb Lip Sync's format (TSV or JSON by the file name)."""
+    from ...faces_hands_addon.speech.cues import cue_format, cues_text, mouth_cues
+    fmt = cue_format(path)
+    text = cues_text(mouth_cues(take.utterance.phones, take.duration), fmt, sound_file, take.duration)
+    with atomic_output(path) as tmp:
+        Path(tmp).write_text(text, encoding="utf-8")
+    return path
 
 
 def run_line(spec: dict, rig_path, fps, progress) -> list[Path]:
@@ -108,7 +120,8 @@ def run_line(spec: dict, rig_path, fps, progress) -> list[Path]:
     rig_obj = _prepare_rig(rig_path, fps, progress)
     _bake_take(rig_obj, take, progress, spec["animation"])
     return _write_outputs(rig_obj, take, out, sheet_path, progress, spec.get("audio"), spec["view"],
-                          spec.get("extra_sheets", ()), spec.get("live_link"), spec.get("wav", True))
+                          spec.get("extra_sheets", ()), spec.get("live_link"), spec.get("wav", True),
+                          spec.get("cues"))
 
 
 def shared_default_rig(folder: str, fps: float, progress) -> str:

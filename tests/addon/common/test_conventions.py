@@ -49,7 +49,7 @@ def test_every_property_has_a_description(bpy_clean):
 def test_operators_that_change_data_can_be_undone(bpy_clean):
     bpy = bpy_clean
     read_only = {"faces_hands.export_face", "faces_hands.export_hand", "faces_hands.export_live_link",
-                 "faces_hands.copy_presets", "faces_hands.clear_shape_cache", "faces_hands.morph_save_face"}
+                 "faces_hands.export_mouth_cues", "faces_hands.copy_presets", "faces_hands.clear_shape_cache", "faces_hands.morph_save_face"}
     lacking = [cls.bl_idname for cls, _ in _operators(bpy)
                if cls.bl_idname not in read_only and "UNDO" not in getattr(cls, "bl_options", set())]
     assert not lacking, lacking

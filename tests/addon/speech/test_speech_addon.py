@@ -1,6 +1,7 @@
 """Speak Text / Lip Sync Audio through the installed add-on, on a mesh with viseme shape keys."""
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -95,15 +96,24 @@ def test_target_without_visemes_is_a_clear_error(bpy_clean):
         bpy.ops.faces_hands.speak_text(text="Hello.")
 
 
-def test_lipsync_audio_file(bpy_clean):
+def test_lipsync_audio_file(bpy_clean, tmp_path):
+    import soundfile
     bpy = bpy_clean
     wav = next(DATA.glob("*.wav"))
     transcript = wav.with_suffix(".txt").read_text().strip()
     obj = _viseme_mesh(bpy)
+    with pytest.raises(RuntimeError, match="no speech take"):
+        bpy.ops.faces_hands.export_mouth_cues(filepath=str(tmp_path / "none.json"))
     assert bpy.ops.faces_hands.lipsync_audio(filepath=str(wav), transcript=transcript) == {"FINISHED"}
     assert len([p for p in _viseme_curves(obj) if "viseme_" in p]) == 15
     strip = bpy.context.scene.sequence_editor.strips[0]
     assert Path(bpy.path.abspath(strip.sound.filepath)).resolve() == wav.resolve()
+    # the same take as Rhubarb mouth cues, from the N-panel / File > Export
+    assert bpy.ops.faces_hands.export_mouth_cues(filepath=str(tmp_path / "cues.json")) == {"FINISHED"}
+    cues = json.loads((tmp_path / "cues.json").read_text())["mouthCues"]
+    assert cues[0]["start"] == 0.0 and {c["value"] for c in cues} <= set("ABCDEFGHX")
+    assert cues[-1]["end"] == pytest.approx(soundfile.info(str(wav)).duration, abs=0.02)
+    assert all(a["end"] == b["start"] for a, b in zip(cues, cues[1:]))
 
 
 def test_corrupt_audio_changes_nothing(bpy_clean, tmp_path):
@@ -161,7 +171,6 @@ def test_zero_length_audio_is_a_clear_error(bpy_clean, tmp_path):
 
 
 def _glb_animation_seconds(path):
-    import json
     import struct
     data = path.read_bytes()
     length = struct.unpack_from("<I", data, 12)[0]
@@ -174,13 +183,21 @@ def test_cli_speak_jobs_csv_glb_and_wav_start_together(installed, tmp_path):
     import soundfile
     from conftest import run_fh
     jobs = tmp_path / "lines.csv"
-    jobs.write_text("out,text,voice\n"
-                    f"{tmp_path / 'hello.glb'},Hello there.,en-us\n"
-                    f"{tmp_path / 'hallo.fbx'},Guten Tag.,de\n")
+    jobs.write_text("out,text,voice,cues\n"
+                    f"{tmp_path / 'hello.glb'},Hello there.,en-us,{tmp_path / 'hello.json'}\n"
+                    f"{tmp_path / 'hallo.fbx'},Guten Tag.,de,{tmp_path / 'hallo.tsv'}\n")
     result = run_fh(installed, "speak", "--jobs", jobs, "--fps", "25")
     assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
-    for name in ("hello.glb", "hello.wav", "hallo.fbx", "hallo.wav"):
+    for name in ("hello.glb", "hello.wav", "hallo.fbx", "hallo.wav", "hello.json", "hallo.tsv"):
         assert (tmp_path / name).exists(), name
+    cues = json.loads((tmp_path / "hello.json").read_text())          # Rhubarb's JSON mouth cues
+    assert cues["metadata"]["soundFile"] == "hello.wav"
+    assert cues["metadata"]["duration"] == pytest.approx(soundfile.info(str(tmp_path / "hello.wav")).duration,
+                                                         abs=0.01)
+    assert {c["value"] for c in cues["mouthCues"]} <= set("ABCDEFGHX") and len(cues["mouthCues"]) >= 5
+    tsv = [line.split("\t") for line in (tmp_path / "hallo.tsv").read_text().splitlines()]
+    assert tsv[0] == ["0.00", "X"] and tsv[-1][1] == "X"
+    assert [float(t) for t, _ in tsv] == sorted(float(t) for t, _ in tsv)
     start, end = _glb_animation_seconds(tmp_path / "hello.glb")
     audio = soundfile.info(str(tmp_path / "hello.wav"))
     assert start == pytest.approx(0.0, abs=1e-6)
