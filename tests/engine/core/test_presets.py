@@ -9,6 +9,7 @@ import pytest
 
 from faces_hands_addon import UserError
 from faces_hands_addon.core import presets
+from faces_hands_addon import emotion  # noqa: F401  (registers the emotion formats)
 from faces_hands_addon.face.expressions import load_expressions
 from faces_hands_addon.face.rig import build_default_rig
 from faces_hands_addon.hand import presets as hand_presets  # noqa: F401  (registers the hand formats)
@@ -20,7 +21,9 @@ FORMATS = {"expressions": "faces_hands.expressions", "face/landmarks": "faces_ha
            "morph/segments": "faces_hands.morph_segments", "morph/population": "faces_hands.morph_population",
            "morph/attributes": "faces_hands.morph_attributes",
            "hand/joints": "faces_hands.hand_joints", "hand/muscles": "faces_hands.hand_muscles",
-           "hand/geometric_muscles": "faces_hands.hand_geometric_muscles", "hand/poses": "faces_hands.hand_poses"}
+           "hand/geometric_muscles": "faces_hands.hand_geometric_muscles", "hand/poses": "faces_hands.hand_poses",
+           "emotion/emotion_words": "faces_hands.emotion_words",
+           "emotion/basic_expressions": "faces_hands.emotion_expressions"}
 
 
 def _format_of(relative: str) -> str:
