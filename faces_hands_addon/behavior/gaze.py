@@ -3,8 +3,8 @@
 
 4.2.1 "Random Eye Movement" / 4.3.5 "Gaze": kept completely still, the eyes give "the awkward impression of
 a dead stare", so the view direction varies randomly within a small range; consecutive positions must not
-differ too much ("otherwise the movement seems erratic"). Each new jitter offset is the previous one plus a
-step of at most ``gaze_jitter_step`` per axis, kept within ``gaze_jitter`` of the fixation; offsets change
+differ too much ("otherwise the movement seems erratic"). Each new jitter offset is drawn uniformly within
+``gaze_jitter_step`` of the previous one per axis, and within ``gaze_jitter`` of the fixation; offsets change
 every ``gaze_jitter_min_s..gaze_jitter_max_s`` seconds, never inside an accented syllable.
 
 The eyelids accompany vertical eye movement: looking down closes them a little, looking up opens them
@@ -37,8 +37,9 @@ def jitter_events(ctx: Context, rng: np.random.Generator) -> list[BehaviorEvent]
         time = ctx.clear_of_accents(time + rng.uniform(style.gaze_jitter_min_s, style.gaze_jitter_max_s))
         if time >= ctx.duration:
             break
-        step = rng.uniform(-style.gaze_jitter_step, style.gaze_jitter_step, 2)
-        offset = np.clip(offset + step, -style.gaze_jitter, style.gaze_jitter)
+        low = np.maximum(offset - style.gaze_jitter_step, -style.gaze_jitter)
+        high = np.minimum(offset + style.gaze_jitter_step, style.gaze_jitter)
+        offset = rng.uniform(low, high)
         if events:
             previous = events[-1]
             events[-1] = BehaviorEvent(previous.kind, previous.start, time, previous.params)
@@ -47,14 +48,14 @@ def jitter_events(ctx: Context, rng: np.random.Generator) -> list[BehaviorEvent]
     return events
 
 
-def _box(values: np.ndarray, width: int) -> np.ndarray:
-    """Moving average over ``width`` samples (edges held): fixation changes become ramps of that length."""
+def _ramp(values: np.ndarray, width: int) -> np.ndarray:
+    """Trailing moving average over ``width`` samples: a fixation change at a sample becomes a linear ramp
+    over the following ``width`` samples (it never starts before the change)."""
     if width <= 1:
         return values
-    padded = np.concatenate([np.full(width, values[0]), values, np.full(width, values[-1])])
-    kernel = np.ones(width) / width
-    smooth = np.convolve(padded, kernel, mode="same")
-    return smooth[width:-width]
+    padded = np.concatenate([np.full(width - 1, values[0]), values])
+    total = np.cumsum(np.concatenate([[0.0], padded]))
+    return (total[width:] - total[:-width]) / width
 
 
 def gaze_curves(ctx: Context, events: list[BehaviorEvent], rate: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -75,7 +76,7 @@ def gaze_curves(ctx: Context, events: list[BehaviorEvent], rate: float) -> tuple
             inside = grid >= event.start
             jitter_yaw[inside], jitter_pitch[inside] = event.params["yaw"], event.params["pitch"]
     width = max(1, int(round(ctx.style.saccade_s * rate)))
-    return grid, _box(yaw + jitter_yaw, width), _box(pitch + jitter_pitch, width)
+    return grid, _ramp(yaw + jitter_yaw, width), _ramp(pitch + jitter_pitch, width)
 
 
 def lid_follow(ctx: Context, eye_pitch: np.ndarray, head_pitch: np.ndarray) -> np.ndarray:

@@ -41,11 +41,13 @@ class Context:
         return float(self.utterance.duration)
 
     def clear_of_accents(self, time: float) -> float:
-        """``time``, or the end of the accented syllable it falls in: gaze never turns away from the
-        listener during an accent (4.3.5: the speaker "does not shift its gaze further away")."""
-        for start, end in self.accents:
-            if start < time < end:
-                return float(end)
+        """``time``, or just after the accented syllable it falls in (or within a saccade of): gaze never
+        turns away from the listener during an accent (4.3.5: the speaker "does not shift its gaze further
+        away"); the margin keeps a gaze change's ramp (``saccade_s``) out of the syllable too."""
+        margin = self.style.saccade_s
+        for start, end in self.accents:     # in time order: a time pushed past one accent meets the next
+            if start - margin < time < end + margin:
+                time = end + margin
         return float(time)
 
 
@@ -192,7 +194,7 @@ def question_events(ctx: Context) -> list[BehaviorEvent]:
                                     (down, 0.0)]),
                 "head.pitch": envelope([(start, 0.0), (up, head), (hold_end, head), (down, 0.0)])}
         keys["brow_R"] = keys["brow_L"]
-        events.append(BehaviorEvent("question_gaze", float(sentence.start), hold_end, {},
+        events.append(BehaviorEvent("question_gaze", float(sentence.start), ctx.clear_of_accents(hold_end), {},
                                     gaze=(0.0, 0.0, QUESTION)))
         events.append(BehaviorEvent("question_raise", start, hold_end, {"word": last.text, "brow":
                                     style.question_brow, "head_rad": head}, keys))
@@ -270,7 +272,8 @@ def regulator_events(ctx: Context, rng: np.random.Generator, thinking: list[Beha
     if u.words:
         first_end = float(u.phrases[0].end) if u.phrases else float(u.words[0].end)
         side = 1.0 if rng.random() < 0.5 else -1.0
-        reach = max(float(u.words[0].start), min(0.3, first_end))
+        lead = float(u.words[0].start)
+        reach = lead if lead >= 0.1 else min(0.3, first_end)
         turn = side * math.radians(style.speaker_state_turn_deg)
         back = ctx.clear_of_accents(first_end)
         keys = {"head.yaw": envelope([(0.0, 0.0), (reach, turn), (back, turn), (back + 0.4, 0.0)])}
