@@ -65,3 +65,17 @@ def test_blink_phases_are_exactly_the_thesis_durations(neutral_runs):
 def test_blinks_are_punctuators_at_pauses_mostly(neutral_runs):
     causes = [e.params["cause"] for _, r in neutral_runs for e in r.of_kind("blink")]
     assert causes.count("pause") > 10 * causes.count("interval")
+
+
+def test_pauses_4_9_s_apart_get_one_extra_blink_between_them():
+    """Pause blinks 4.9 s apart: just over the thesis' 4.8 s, so exactly one extra blink between each pair."""
+    phrases = [["1"] * 19 for _ in range(6)]         # 19 syllables of 0.25 s, then a 0.15 s pause: 4.9 s
+    u, _ = build([(".", phrases)], phrase_pause=0.15)
+    r = generate_behavior(u, seed=0)
+    pause_onsets = [e.start for e in r.of_kind("blink") if e.params["cause"] == "pause"]
+    assert len(pause_onsets) == 6 and np.allclose(np.diff(pause_onsets), 4.9)
+    extra = np.array([e.start for e in r.of_kind("blink") if e.params["cause"] == "interval"])
+    for a, b in zip(pause_onsets, pause_onsets[1:]):
+        assert np.sum((extra > a) & (extra < b)) == 1
+    onsets = _onsets(r)
+    assert np.diff(np.concatenate([[0.0], onsets])).max() <= THESIS_INTERVAL + 1e-9
