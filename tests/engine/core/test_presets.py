@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from faces_hands_addon import UserError
+from faces_hands_addon.behavior import styles as behavior_styles  # noqa: F401  (registers the behaviour format)
 from faces_hands_addon.core import presets
 from faces_hands_addon.face.expressions import load_expressions
 from faces_hands_addon.face.rig import build_default_rig
@@ -20,7 +21,8 @@ FORMATS = {"expressions": "faces_hands.expressions", "face/landmarks": "faces_ha
            "morph/segments": "faces_hands.morph_segments", "morph/population": "faces_hands.morph_population",
            "morph/attributes": "faces_hands.morph_attributes",
            "hand/joints": "faces_hands.hand_joints", "hand/muscles": "faces_hands.hand_muscles",
-           "hand/geometric_muscles": "faces_hands.hand_geometric_muscles", "hand/poses": "faces_hands.hand_poses"}
+           "hand/geometric_muscles": "faces_hands.hand_geometric_muscles", "hand/poses": "faces_hands.hand_poses",
+           "behavior/styles": "faces_hands.behavior_styles"}
 
 
 def _format_of(relative: str) -> str:
