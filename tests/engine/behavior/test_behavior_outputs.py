@@ -118,3 +118,24 @@ def test_head_raise_limit_in_degrees_is_the_styles(monologues):
     u, _ = monologues[1]
     r = generate_behavior(u, {"head_raise_max_deg": 1.0, "question_head_deg": 1.0, "thinking_head_deg": 0.5})
     assert r.tracks["head.pitch"].values.max() <= math.radians(1.0) + 1e-12
+
+
+def test_short_silent_and_unvoiced_utterances_still_give_valid_tracks():
+    from dataclasses import replace
+
+    from faces_hands_addon.speech.pitch import PitchContour
+
+    from utterances import build
+    u, _ = build([(".", [["1"]])])
+    unvoiced = replace(u, pitch=PitchContour(u.pitch.times, np.full(u.pitch.times.shape, np.nan), 0.01))
+    silent = replace(u, words=[], syllables=[], phrases=[], sentences=[], pitch=unvoiced.pitch)
+    tiny = replace(u, samples=u.samples[:1600], words=[], syllables=[], phrases=[], sentences=[], pauses=[],
+                   phones=[], pitch=unvoiced.pitch)
+    for utterance in (u, unvoiced, silent, tiny):
+        r = generate_behavior(utterance, seed=0)
+        for track in r.tracks:
+            assert np.all(np.isfinite(track.values)) and track.end == pytest.approx(utterance.duration, abs=0.011)
+    assert generate_behavior(unvoiced).count("pitch_max") == 0
+    long_silence = replace(silent, samples=np.zeros(16000 * 12, np.float32), pauses=[])
+    onsets = [e.start for e in generate_behavior(long_silence).of_kind("blink")]
+    assert np.diff([0.0] + onsets).max() <= 4.8 + 1e-9 and len(onsets) >= 2
