@@ -8,7 +8,7 @@ import pytest
 from faces_hands_addon.behavior import generate_behavior
 from faces_hands_addon.behavior.prosody import phone_boundaries
 
-from utterances import build
+from behavior_utterances import build, neutral_runs  # noqa: F401  (neutral_runs: a fixture)
 
 THESIS_INTERVAL = 4.8
 CLOSE, APEX, OPEN = 1 / 8, 1 / 24, 1 / 12

@@ -7,6 +7,8 @@ import math
 import numpy as np
 import pytest
 
+from behavior_utterances import neutral_runs  # noqa: F401  (fixtures)
+
 JITTER = 0.035 + 1e-6        # the neutral style's jitter range (eye_yaw / eye_pitch units)
 
 

@@ -14,6 +14,8 @@ from faces_hands_addon.behavior import CharacterStyle, channel_specs, generate_b
 from faces_hands_addon.core import presets
 from faces_hands_addon.face.controls import control_specs
 
+from behavior_utterances import monologues, neutral_runs  # noqa: F401  (fixtures)
+
 FACE_MUSCLES = ["frontalis_inner_L", "frontalis_inner_R", "frontalis_outer_L", "frontalis_outer_R",
                 "corrugator_supercilii_L", "corrugator_supercilii_R", "procerus", "orbicularis_oculi_L",
                 "orbicularis_oculi_R", "zygomaticus_major_L", "zygomaticus_major_R"]
@@ -125,7 +127,7 @@ def test_short_silent_and_unvoiced_utterances_still_give_valid_tracks():
 
     from faces_hands_addon.speech.pitch import PitchContour
 
-    from utterances import build
+    from behavior_utterances import build
     u, _ = build([(".", [["1"]])])
     unvoiced = replace(u, pitch=PitchContour(u.pitch.times, np.full(u.pitch.times.shape, np.nan), 0.01))
     silent = replace(u, words=[], syllables=[], phrases=[], sentences=[], pitch=unvoiced.pitch)

@@ -10,6 +10,8 @@ import pytest
 
 from faces_hands_addon.behavior import pitch_extrema
 
+from behavior_utterances import monologues, neutral_runs  # noqa: F401  (fixtures)
+
 
 def _rate(runs, kind, candidates):
     hits = sum(r.count(kind) for _, r in runs)

@@ -1,8 +1,15 @@
 """Utterances built directly (no synthesis): many pitch maxima, pauses of every kind, accents, questions
-and filled pauses, with a known layout so the tests can count the candidates of every rule."""
+and filled pauses, with a known layout so the tests can count the candidates of every rule; and the
+fixtures the behaviour tests share (computed once per session, whichever module asks first).
+
+Test modules import the fixtures by name (a conftest.py here would shadow the suite's top-level
+``conftest`` module that other tests import)."""
 from __future__ import annotations
 
+import functools
+
 import numpy as np
+import pytest
 
 from faces_hands_addon.speech.pitch import PitchContour
 from faces_hands_addon.speech.utterance import Phone, WordDraft, assemble_utterance
@@ -92,3 +99,29 @@ def long_monologue(seed=0, sentences=12):
             phrases.append(phrase)
         out.append(("?" if n % 3 == 2 else ".", phrases))
     return build(out, seed=seed)
+
+
+SEEDS = 80
+
+
+@functools.cache
+def _monologues():
+    return tuple(long_monologue(seed) for seed in range(SEEDS))
+
+
+@functools.cache
+def _neutral_runs():
+    from faces_hands_addon.behavior import generate_behavior
+    return tuple((u, generate_behavior(u, "neutral", seed=seed)) for seed, (u, _) in enumerate(_monologues()))
+
+
+@pytest.fixture
+def monologues():
+    """(utterance, accent peaks) of SEEDS different monologues."""
+    return _monologues()
+
+
+@pytest.fixture
+def neutral_runs():
+    """The neutral style's behaviour of every monologue, one seed each."""
+    return _neutral_runs()
