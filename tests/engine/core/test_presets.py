@@ -7,9 +7,9 @@ import json
 import numpy as np
 import pytest
 
-from faces_hands_addon import UserError
+from faces_hands_addon import UserError, emotion  # noqa: F401  (emotion registers its formats)
+from faces_hands_addon.behavior import styles as behavior_styles  # noqa: F401  (registers the behaviour format)
 from faces_hands_addon.core import presets
-from faces_hands_addon import emotion  # noqa: F401  (registers the emotion formats)
 from faces_hands_addon.face.expressions import load_expressions
 from faces_hands_addon.face.rig import build_default_rig
 from faces_hands_addon.hand import presets as hand_presets  # noqa: F401  (registers the hand formats)
@@ -23,7 +23,8 @@ FORMATS = {"expressions": "faces_hands.expressions", "face/landmarks": "faces_ha
            "hand/joints": "faces_hands.hand_joints", "hand/muscles": "faces_hands.hand_muscles",
            "hand/geometric_muscles": "faces_hands.hand_geometric_muscles", "hand/poses": "faces_hands.hand_poses",
            "emotion/emotion_words": "faces_hands.emotion_words",
-           "emotion/basic_expressions": "faces_hands.emotion_expressions"}
+           "emotion/basic_expressions": "faces_hands.emotion_expressions",
+           "behavior/styles": "faces_hands.behavior_styles"}
 
 
 def _format_of(relative: str) -> str:
