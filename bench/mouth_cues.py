@@ -8,9 +8,9 @@ with white noise at 10 dB SNR (seeded).
 
 For every labelled /p b m/: "closed" if the system has an A cue (lips closed) overlapping the phone,
 "closed within a frame" if one overlaps the phone widened by 1/30 s on both sides; the closure onset
-error is the A cue's start minus the phone's start. Word onsets (ours only: Rhubarb gives no words) are
-compared with Festival's. Both systems get the same WAV and the same transcript (Rhubarb's dialog file)
-in the same run; wall time per file is each one's whole command or call.
+error is the A cue's start minus the start of the first phone of a run of bilabials. Word onsets (ours
+only: Rhubarb gives no words) are compared with Festival's. Both systems get the same WAV and the same
+transcript (Rhubarb's dialog file) in the same run; wall time per file is each one's whole command or call.
 
 Our cues are the ``--cues`` file of a real ``./fh lipsync`` for the first sentence (to show the bench's
 engine path writes the same bytes), then the engine path for all (alignment + cues; the bake does not
@@ -127,12 +127,14 @@ def closures(cues, segments):
     """Per labelled bilabial: (closed, closed within a frame, onset error s or None)."""
     rows = []
     closed_cues = [(s, e) for s, e, shape in cues if shape == "A"]
-    for phone, start, end in segments:
+    for index, (phone, start, end) in enumerate(segments):
         if phone not in BILABIALS:
             continue
         inside = [(s, e) for s, e in closed_cues if s < end and e > start]
         near = [(s, e) for s, e in closed_cues if s < end + FRAME and e > start - FRAME]
-        onset = min((s - start for s, _ in near), key=abs) if near else None
+        # one closure spans a run of bilabials ("bumpy": m p): its onset belongs to the run's first phone
+        first_of_run = index == 0 or segments[index - 1][0] not in BILABIALS
+        onset = min((s - start for s, _ in near), key=abs) if near and first_of_run else None
         rows.append((bool(inside), bool(near), onset))
     return rows
 
