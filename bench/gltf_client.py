@@ -62,7 +62,7 @@ SENTENCES = (
 )
 WORDS_PER_SECOND = 3.2  # espeak-ng en-us at 175 wpm with sentence pauses: 97 words -> 29.7 s here
 SHORT_TEXT = "Can you show me the way to the conference hall?"  # 2.5 s
-RESIDUAL = re.compile(r"fit residual median ([0-9.]+) mm, max ([0-9.]+) mm")
+RESIDUAL = re.compile(r"fit residual median ([0-9.]+) mm, (?:p90 [0-9.]+ mm, )?max ([0-9.]+) mm")
 SPEECH = re.compile(r"([0-9.]+) s of speech")
 JAW_TARGETS = ("jawOpen", "FH.jaw_open", "viseme_aa")
 POSITION_TOL_MM, INFLUENCE_TOL = 0.01, 1e-5

@@ -10,6 +10,18 @@ def _voice_search(self, context, edit_text):
     return [v for v in voice_names() if edit_text.lower() in v.lower()]
 
 
+def _style_items(self, context):
+    """The character styles of the behaviour preset (the artist's copy wins), after "None"."""
+    from ..faces_hands_addon.behavior.styles import style_names
+    try:
+        names = style_names()
+    except Exception:  # a broken user preset must not break the panel; Speak reports it
+        names = ["neutral"]
+    _style_items.cache = [("NONE", "None", "Lip sync only: no blinks, brows, gaze or head motion")] + [
+        (n, n.replace("_", " ").title(), f"Non-verbal behaviour in the '{n}' style (thesis 4.2.2)") for n in names]
+    return _style_items.cache
+
+
 class FH_SceneSettings(bpy.types.PropertyGroup):
     """Faces & Hands settings stored in the .blend file"""
 
@@ -30,6 +42,17 @@ class FH_SceneSettings(bpy.types.PropertyGroup):
                                         description="Voice pitch (espeak-ng scale, 50 = normal)")
     speech_volume: bpy.props.IntProperty(name="Volume", default=100, min=0, max=200,
                                          description="Loudness in percent")
+    behavior_style: bpy.props.EnumProperty(
+        name="Behaviour", items=_style_items,
+        description="Non-verbal behaviour with the speech (blinks, brow raises, gaze, thinking faces) in a "
+                    "character style, on its own layer of the face rig")
+    behavior_seed: bpy.props.IntProperty(name="Seed", default=0, min=0,
+                                         description="Seed of the behaviour's random choices (same seed, same "
+                                                     "animation)")
+    speech_emotion: bpy.props.StringProperty(
+        name="Emotion", default="",
+        description="An emotion for the whole take, in face and voice: a word (joy, fear, anxiety, ...) or "
+                    "activation,evaluation such as 50,-20 (empty: only the emoticons' emotions)")
     audio_path: bpy.props.StringProperty(name="Audio", subtype="FILE_PATH",
                                          description="Recorded speech: WAV, FLAC or OGG, any rate")
     audio_transcript: bpy.props.StringProperty(

@@ -13,7 +13,7 @@ every key time of every event, so a blink's phases are exact keys.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Mapping
+from typing import Mapping, Sequence
 
 import numpy as np
 
@@ -115,11 +115,13 @@ def _render(ctx: Context, events: list[BehaviorEvent], rate: float) -> tuple[Tra
 
 
 def generate_behavior(utterance, style: "str | CharacterStyle | Mapping[str, float]" = "neutral", seed: int = 0,
-                      rate: float = 100.0) -> BehaviorResult:
+                      rate: float = 100.0, lids_busy: "Sequence[tuple[float, float]]" = ()) -> BehaviorResult:
     """The non-verbal behaviour of ``utterance`` (a :class:`~faces_hands_addon.speech.Utterance`) in character
     ``style`` (a name from ``presets/behavior/styles.json``, a :class:`CharacterStyle` or overrides of
     ``neutral``), every random choice drawn from generators seeded by ``seed``; curves sampled at ``rate``
-    Hz plus the events' own key times (module docstring)."""
+    Hz plus the events' own key times (module docstring). ``lids_busy``: (start, end) intervals in which
+    something else closes the lids (the wink of ";-)", 4.3.5): a blink overlapping one is left out, so the
+    wink is not drowned by a blink of both eyes (the wink's closure takes the blink's place)."""
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise UserError(f"the behaviour seed must be a whole number >= 0, got {seed!r}")
     if not np.isfinite(rate) or rate <= 0 or rate > 1000:
@@ -129,5 +131,7 @@ def generate_behavior(utterance, style: "str | CharacterStyle | Mapping[str, flo
     resolved = load_style(style)
     ctx = _context(utterance, resolved)
     events = _events(ctx, int(seed))
+    busy = [(float(a), float(b)) for a, b in lids_busy]
+    events = [e for e in events if e.kind != "blink" or not any(e.start < b and e.end > a for a, b in busy)]
     tracks, specs = _render(ctx, events, float(rate))
     return BehaviorResult(tracks, events, resolved, int(seed), specs)

@@ -15,7 +15,7 @@ Two targets:
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Callable
 
 from ..anim import TrackSet
@@ -36,13 +36,15 @@ Progress = Callable[[float, str], None]
 
 @dataclass
 class SpeechTake:
-    """One line of speech ready to be put on a character."""
+    """One line of speech ready to be put on a character: ``tracks`` for the speech layer, and ``layers``
+    (``"behavior"``, ``"emotion"``; see :mod:`.performance`) for the other layers of a face rig."""
 
     utterance: Utterance
     tracks: TrackSet
     target: str
     fps: float
     ranges: dict[str, tuple[float, float]]
+    layers: dict[str, TrackSet] = field(default_factory=dict)
 
     @property
     def duration(self) -> float:

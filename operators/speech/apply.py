@@ -31,6 +31,8 @@ from ..common.timing import scene_fps, seconds_to_frames
 STRIP_PREFIX = "FH Speech"
 #: object property holding the last take's mouth cues (Rhubarb shapes), for File > Export > Mouth Cues
 CUES_PROPERTY = "fh_mouth_cues"
+#: object property naming the layers besides speech the last take wrote (behavior, emotion)
+TAKE_LAYERS_PROPERTY = "fh_take_layers"
 VISEME_PATH = 'key_blocks["{}"].value'
 
 
@@ -65,9 +67,10 @@ def _curves_for_take(obj, take, scene, start_frame):
     curves = {}
     if take.target == "muscles":
         owner = obj
-        for track in take.tracks:
-            curves[controls.data_path(track.name, "speech")] = (
-                seconds_to_frames(track.times, scene, start_frame), track.values)
+        for layer, tracks in (("speech", take.tracks), *take.layers.items()):
+            for track in tracks:
+                curves[controls.data_path(track.name, layer)] = (
+                    seconds_to_frames(track.times, scene, start_frame), track.values)
     else:
         owner = obj.data.shape_keys
         present = viseme_keys(obj)
@@ -78,9 +81,12 @@ def _curves_for_take(obj, take, scene, start_frame):
     return owner, curves
 
 
-def _remove_previous_take(scene, obj, owner, take_target: str) -> None:
+def _remove_previous_take(scene, obj, owner, take_target: str, layers=()) -> None:
     if take_target == "muscles":
-        fcurves.remove_fcurves(owner, (controls.layer_prefix("speech"),))
+        owned = {"speech", *layers, *str(obj.get(TAKE_LAYERS_PROPERTY, "")).split()}
+        fcurves.remove_fcurves(owner, tuple(controls.layer_prefix(layer) for layer in sorted(owned)))
+        if TAKE_LAYERS_PROPERTY in obj:
+            del obj[TAKE_LAYERS_PROPERTY]
     else:
         names = [alias for v in VISEMES for alias in (v, *VISEME_ALIASES.get(v, ()))]
         fcurves.remove_fcurves(owner, tuple(VISEME_PATH.format(v) for v in names))
@@ -147,17 +153,20 @@ def apply_take(scene, obj, take, *, start_frame: int | None = None, audio_path: 
     if not curves:
         raise UserError(f"nothing to animate on '{obj.name}'")
     if take.target == "muscles":
-        for track in take.tracks:
-            low, high = take.ranges.get(track.name, (0.0, 1.0))
-            controls.ensure_property(obj, track.name, "speech", low, high)
-    _remove_previous_take(scene, obj, owner, take.target)
+        for layer, tracks in (("speech", take.tracks), *take.layers.items()):
+            for track in tracks:
+                low, high = take.ranges.get(track.name, (0.0, 1.0))
+                controls.ensure_property(obj, track.name, layer, low, high)
+    _remove_previous_take(scene, obj, owner, take.target, take.layers)
     try:
         fcurves.write_curves(owner, curves, action_name=f"{obj.name} Speech", group="Speech")
         if add_sound:
             _add_sound_strip(scene, obj, take, start, audio_path)
         obj[CUES_PROPERTY] = _cues_json(take)
+        if take.layers:
+            obj[TAKE_LAYERS_PROPERTY] = " ".join(sorted(take.layers))
     except Exception:
-        _remove_previous_take(scene, obj, owner, take.target)
+        _remove_previous_take(scene, obj, owner, take.target, take.layers)
         raise
     end_frame = int(np.ceil(start + take.duration * scene_fps(scene)))
     extended = ""

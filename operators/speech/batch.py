@@ -30,7 +30,7 @@ __all__ = ["OUT_SUFFIXES", "COLUMNS", "checked_spec", "read_jobs", "run_jobs"]
 
 OUT_SUFFIXES = (".glb", ".fbx", ".blend")
 COLUMNS = ("out", "text", "audio", "transcript", "voice", "rate", "sheet", "view", "animation", "live_link",
-           "cues")
+           "cues", "style", "seed", "emotion")
 ANIMATIONS = ("weights", "frames")
 
 
@@ -57,6 +57,20 @@ def _check_wav(wav: Path, overwrite: bool) -> None:
                         "another output name, or pass --overwrite to replace it")
 
 
+def _nonverbal(spec: dict):
+    """(style or None, seed, emotion or None) of a take, checked: a style of the styles preset, a whole
+    seed >= 0, an emotion word of the table or an activation,evaluation point."""
+    from ...faces_hands_addon.behavior.styles import load_style
+    from ...faces_hands_addon.speech.performance import parse_emotion
+    style = spec.get("style") or None
+    if style is not None:
+        load_style(style)
+    seed = _number("seed", spec.get("seed"), 0, (0, 2 ** 32 - 1))
+    if seed != int(seed):
+        raise UserError(f"seed {spec.get('seed')!r} is not a whole number")
+    return style, int(seed), parse_emotion(spec.get("emotion"))
+
+
 def checked_spec(raw: dict, fps: float, rig_path=None, jobs_path=None, overwrite: bool = False) -> dict:
     """The take ``raw`` (out, text or audio, ...) checked and normalised, before any expensive work."""
     spec = {k: (v.strip() if isinstance(v, str) else v) for k, v in raw.items() if k}
@@ -81,6 +95,7 @@ def checked_spec(raw: dict, fps: float, rig_path=None, jobs_path=None, overwrite
         raise UserError("a Live Link CSV needs the weights animation (leave out --animation frames)")
     cues = _optional_path(spec, "cues", (".tsv", ".txt", ".json"))
     rate = _number("rate", spec.get("rate"), 175, RATE_RANGE)
+    style, seed, emotion = _nonverbal(spec)
     if audio:
         seconds = audio_header(audio).duration          # exists, readable, within the length limit
     else:
@@ -98,7 +113,7 @@ def checked_spec(raw: dict, fps: float, rig_path=None, jobs_path=None, overwrite
                                 "jobs file": Path(jobs_path) if jobs_path else None})
     _check_wav(wav, overwrite)
     spec.update(out=str(out), text=text, audio=audio or None, rate=rate, animation=animation, view=view,
-                live_link=live_link, cues=cues, outputs=[p for p in outputs.values() if p is not None])
+                live_link=live_link, cues=cues, style=style, seed=seed, emotion=emotion, outputs=[p for p in outputs.values() if p is not None])
     return spec
 
 

@@ -22,9 +22,14 @@ def _common_arguments(parser) -> None:
     parser.add_argument("--live-link", help="also write the ARKit weights as a Live Link Face CSV (.csv)")
     parser.add_argument("--cues", help="also write the mouth cues in Rhubarb Lip Sync's format (shapes A-H, X): "
                                        ".tsv or .json")
+    parser.add_argument("--style", help="also animate non-verbal behaviour (blinks, brows, gaze, thinking) in this "
+                                        "character style: neutral, nodder, brow_raiser, reserved, expressive")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the behaviour's random choices (default 0)")
+    parser.add_argument("--emotion", help="an emotion for the whole take, in face and voice: a word (joy, fear, "
+                                          "anxiety, ...) or activation,evaluation such as 50,-20")
     parser.add_argument("--jobs", help="CSV with one row per take (columns: out, and text or audio "
                                        "[+ transcript]; optional voice, rate, sheet, view, animation, live_link, "
-                                       "cues); "
+                                       "cues, style, seed, emotion); "
                                        "replaces the single-line options")
     parser.add_argument("--fail-fast", action="store_true",
                         help="with --jobs: stop at the first failing row (default: report it and go on)")
@@ -60,7 +65,8 @@ class Speak:
             raise UserError("give --text and --out (or --jobs FILE.csv)")
         return _run(args, {"text": args.text, "voice": args.voice, "rate": args.rate, "out": args.out,
                            "sheet": args.sheet, "view": args.view, "animation": args.animation,
-                           "live_link": args.live_link, "cues": args.cues}, progress)
+                           "live_link": args.live_link, "cues": args.cues,
+                           "style": args.style, "seed": args.seed, "emotion": args.emotion}, progress)
 
 
 class LipSync:
@@ -81,7 +87,8 @@ class LipSync:
             raise UserError("give --audio and --out (or --jobs FILE.csv)")
         return _run(args, {"audio": args.audio, "transcript": args.transcript, "voice": args.language,
                            "out": args.out, "sheet": args.sheet, "view": args.view, "animation": args.animation,
-                           "live_link": args.live_link, "cues": args.cues}, progress)
+                           "live_link": args.live_link, "cues": args.cues,
+                           "style": args.style, "seed": args.seed, "emotion": args.emotion}, progress)
 
 
 COMMANDS = [Speak, LipSync]

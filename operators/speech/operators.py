@@ -38,6 +38,24 @@ def _speech_settings(context):
     return context.scene.faces_hands
 
 
+def _nonverbal(settings, kind: str):
+    """(style or None, seed, emotion or None) from the panel, checked before the slow part; viseme shape
+    keys only lip-sync."""
+    from ...faces_hands_addon.speech.performance import parse_emotion
+    if kind != "muscles":
+        return None, 0, None
+    style = None if settings.behavior_style in ("", "NONE") else settings.behavior_style
+    return style, int(settings.behavior_seed), parse_emotion(settings.speech_emotion)
+
+
+def _performed(take, style, seed, emotion):
+    """The take with its behaviour and emotion layers (face rigs), or as it is."""
+    from ...faces_hands_addon.speech.performance import with_nonverbal
+    if take.target != "muscles" or (style is None and emotion is None and not take.utterance.emotions):
+        return take
+    return with_nonverbal(take, style=style, seed=seed, emotion=emotion)
+
+
 class _SpeechOperatorBase(JobOperator):
     start_at_current: bpy.props.BoolProperty(
         name="Start at Current Frame", default=False,
@@ -72,11 +90,14 @@ class FH_OT_speak_text(_SpeechOperatorBase, bpy.types.Operator):
         if not text.strip():
             raise UserError("there is no text to speak; type some into the Speech panel")
         fps = scene_fps(context.scene)
+        style, seed, emotion = _nonverbal(settings, kind)
 
         def make():
-            return take_from_text(text, voice=settings.speech_voice or default_voice(), rate=settings.speech_rate,
-                                  pitch=settings.speech_pitch, volume=settings.speech_volume,
-                                  fps=fps, target=kind)
+            from ...faces_hands_addon.speech.performance import voice_settings
+            voice = voice_settings(emotion, settings.speech_rate, settings.speech_pitch, settings.speech_volume)
+            take = take_from_text(text, voice=settings.speech_voice or default_voice(), fps=fps, target=kind,
+                                  **voice)
+            return _performed(take, style, seed, emotion)
         return SpeechJob(obj.name, make, None, self._start_frame(context))
 
 
@@ -103,10 +124,12 @@ class FH_OT_lipsync_audio(_SpeechOperatorBase, bpy.types.Operator):
         if not path:
             raise UserError("choose an audio file in the Speech panel first")
         fps = scene_fps(context.scene)
+        style, seed, emotion = _nonverbal(settings, kind)
 
         def make():
-            return take_from_audio(path, transcript or None, fps=fps, target=kind,
+            take = take_from_audio(path, transcript or None, fps=fps, target=kind,
                                    language=settings.speech_voice or default_voice())
+            return _performed(take, style, seed, emotion)
         return SpeechJob(obj.name, make, path, self._start_frame(context))
 
 

@@ -109,14 +109,19 @@ def run_line(spec: dict, rig_path, fps, progress) -> list[Path]:
     for path in spec["outputs"]:
         if path.exists():
             print(f"replacing {path}")
+    from ...faces_hands_addon.speech.performance import voice_settings, with_nonverbal
+    emotion = spec.get("emotion")
     if spec.get("audio"):
         take = take_from_audio(spec["audio"], spec.get("transcript") or None, fps=fps, target="muscles",
                                language=spec.get("voice") or "en-us", progress=progress)
         for warning in take.utterance.warnings:
             print(f"warning: {warning}")
     else:
-        take = take_from_text(spec["text"], voice=spec.get("voice") or "en-us", rate=float(spec["rate"]),
-                              fps=fps, target="muscles", progress=progress)
+        voice = voice_settings(emotion, float(spec["rate"]))
+        take = take_from_text(spec["text"], voice=spec.get("voice") or "en-us", fps=fps, target="muscles",
+                              progress=progress, **voice)
+    if spec.get("style") or emotion is not None or take.utterance.emotions:
+        take = with_nonverbal(take, style=spec.get("style"), seed=int(spec.get("seed") or 0), emotion=emotion)
     rig_obj = _prepare_rig(rig_path, fps, progress)
     _bake_take(rig_obj, take, progress, spec["animation"])
     return _write_outputs(rig_obj, take, out, sheet_path, progress, spec.get("audio"), spec["view"],

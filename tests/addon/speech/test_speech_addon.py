@@ -211,3 +211,73 @@ def test_cli_speak_bad_jobs_file_writes_nothing(installed, tmp_path):
     result = run_fh(installed, "speak", "--jobs", jobs)
     assert result.returncode == 1 and "unknown column(s) txt" in result.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == ["lines.csv"]
+
+
+def test_speak_with_behaviour_and_emotion_puts_each_on_its_layer(bpy_clean):
+    bpy = bpy_clean
+    settings = bpy.context.scene.faces_hands
+    assert bpy.ops.faces_hands.build_face_rig() == {"FINISHED"}
+    rig = bpy.context.active_object
+    settings.behavior_style, settings.behavior_seed, settings.speech_emotion = "neutral", 3, "hungry"
+    before = sorted(_curves(rig))
+    with pytest.raises(RuntimeError, match="unknown emotion word"):          # checked before any work
+        bpy.ops.faces_hands.speak_text(text="Hi! ;-) How are you?")
+    assert sorted(_curves(rig)) == before
+    settings.speech_emotion = "joy"
+    assert bpy.ops.faces_hands.speak_text(text="Well, hello there. How are you today?") == {"FINISHED"}
+    curves = _curves(rig)
+    lids = curves['["fh.behavior.eyelid_close_L"]']
+    assert max(k.co[1] for k in lids.keyframe_points) == pytest.approx(1.0, abs=1e-6)     # a full blink
+    smile = curves['["fh.emotion.zygomaticus_major_L"]']
+    assert min(k.co[1] for k in smile.keyframe_points) > 0.2                 # joy all through the take
+    assert rig["fh_take_layers"] == "behavior emotion"
+    # lip sync only again: the previous take's behaviour and emotion go with it, the artist's keys stay
+    settings.behavior_style, settings.speech_emotion = "NONE", ""
+    assert bpy.ops.faces_hands.speak_text(text="Hello.") == {"FINISHED"}
+    left = _curves(rig)
+    assert not [p for p in left if p.startswith(('["fh.behavior.', '["fh.emotion.'))]
+    assert "fh_take_layers" not in rig
+
+
+def _glb_weight_animation(path):
+    """{node name: (times, {target name: weights})} of a GLB's weights channels."""
+    import struct
+    data = path.read_bytes()
+    length = struct.unpack_from("<I", data, 12)[0]
+    doc = json.loads(data[20:20 + length])
+    blob = data[20 + length + 8:]
+
+    def floats(index):
+        accessor = doc["accessors"][index]
+        view = doc["bufferViews"][accessor["bufferView"]]
+        count = accessor["count"] * {"SCALAR": 1, "VEC3": 3, "VEC4": 4}[accessor["type"]]
+        offset = view.get("byteOffset", 0) + accessor.get("byteOffset", 0)
+        return np.frombuffer(blob, dtype="<f4", count=count, offset=offset)
+    out = {}
+    for animation in doc["animations"]:
+        for channel in animation["channels"]:
+            node = doc["nodes"][channel["target"]["node"]]
+            names = doc["meshes"][node["mesh"]]["extras"]["targetNames"]
+            sampler = animation["samplers"][channel["sampler"]]
+            times = floats(sampler["input"])
+            weights = floats(sampler["output"]).reshape(len(times), -1)
+            out[node["name"]] = (times, dict(zip(names, weights.T)))
+    return out
+
+
+def test_cli_speak_thesis_example_with_behaviour_exports_blinks_wink_and_smile(installed, tmp_path):
+    from conftest import run_fh
+    from faces_hands_addon.speech import synthesize
+    text = "Hi! ;-) Can you show me the way to the conference hall? :-)"
+    out = tmp_path / "hi.glb"
+    result = run_fh(installed, "speak", "--text", text, "--style", "neutral", "--seed", "1", "--out", out)
+    assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
+    times, weights = max(_glb_weight_animation(out).values(), key=lambda tw: len(tw[1]))
+    assert weights["eyeBlinkLeft"].max() > 0.6 and weights["eyeBlinkRight"].max() > 0.6     # blinks
+    wink = next(t.time for t in synthesize(text).emotions if t.emotion == "kidding")
+    at = int(np.argmin(np.abs(times - wink)))
+    assert weights["eyeBlinkRight"][at] - weights["eyeBlinkLeft"][at] > 0.3                # one eye: a wink
+    assert max(weights["mouthSmileLeft"][at], weights["mouthSmileRight"][at]) > 0.2        # and a smile
+    bad = run_fh(installed, "speak", "--text", text, "--style", "shy", "--out", tmp_path / "b.glb")
+    assert bad.returncode == 1 and "unknown character style 'shy'" in bad.stderr
+    assert not (tmp_path / "b.glb").exists()

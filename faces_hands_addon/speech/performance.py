@@ -1,0 +1,98 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Animate Speech: lip sync plus non-verbal behaviour plus emotion, each on its own layer of a face rig.
+
+Thesis 4.3.5: the speech-related and the emotional contractions of a face are summed (and clamped, which
+the layers' mixing rule does, ``anim.layers.mix``); the non-verbal signals that accompany speech (blinks,
+brow raises, gaze, thinking faces) come from rules on the utterance (4.3.5, :mod:`..behavior`), the
+emotions from the emoticons in the text (4.3.5, Table 4.1) and from an emotion for the whole take (4.4,
+:mod:`..emotion`), which also sets the voice by Table 4.5 (:func:`voice_settings`).
+
+The take's ``tracks`` stay the speech layer; :func:`with_nonverbal` adds ``layers["behavior"]`` and
+``layers["emotion"]``. The behaviour's head channels (``head.pitch/yaw/roll``) are left out: the face rig
+has no head joint to turn.
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from ..anim.tracks import Track, TrackSet
+from ..core.errors import UserError
+from .takes import SpeechTake
+
+__all__ = ["parse_emotion", "voice_settings", "with_nonverbal"]
+
+
+def parse_emotion(text: str | None):
+    """``None``, a word of the emotion table (``"joy"``) or ``"activation,evaluation[,power]"`` (``"50,-20"``),
+    checked (an unknown word or a bad point is a :class:`UserError` naming the choices)."""
+    from ..emotion import emotion_point
+    if text is None or not str(text).strip():
+        return None
+    text = str(text).strip()
+    if any(ch.isdigit() for ch in text) and "," in text:
+        try:
+            values = tuple(float(v) for v in text.split(","))
+        except ValueError:
+            raise UserError(f"--emotion {text!r}: give a word or activation,evaluation (two numbers)") from None
+        emotion_point(values)
+        return values
+    emotion_point(text)
+    return text.lower()
+
+
+def voice_settings(emotion, rate: float, pitch: float = 50.0, volume: float = 100.0) -> dict[str, float]:
+    """espeak-ng rate/pitch/volume for a take spoken with ``emotion`` (Table 4.5), around the given neutral
+    voice; no emotion: the voice unchanged."""
+    if emotion is None:
+        return {"rate": rate, "pitch": pitch, "volume": volume}
+    from ..emotion import voice_for
+    return voice_for(emotion, {"rate": rate, "pitch": pitch, "volume": volume}).synthesize_kwargs()
+
+
+def _constant_expression(emotion, duration: float) -> TrackSet:
+    from ..emotion import expression_for
+    tracks = TrackSet()
+    times = np.array([0.0, max(duration, 1e-3)])
+    for control, value in expression_for(emotion).items():
+        tracks.add(Track(control, times, np.full(2, float(value))))
+    return tracks
+
+
+def _winks(utterance, model) -> list[tuple[float, float]]:
+    """(start, end) of every wink of the utterance's emoticons (";-)"), as :func:`emotion.wink_curve` times it."""
+    from ..emotion import emotion_windows
+    spans = []
+    for window in emotion_windows(utterance):
+        wink = model.tags.get(window.emotion, {}).get("wink")
+        if wink:
+            half = 0.5 * float(wink["hold"])
+            spans.append((window.apex - half - float(wink["close"]), window.apex + half + float(wink["open"])))
+    return spans
+
+
+def with_nonverbal(take: SpeechTake, *, style: str | None = "neutral", seed: int = 0,
+                   emotion=None) -> SpeechTake:
+    """``take`` with a behaviour layer (``style`` from ``presets/behavior/styles.json``, every random choice
+    from ``seed``; ``None``: no behaviour) and an emotion layer (the emoticons' emotions, plus ``emotion``
+    for the whole take). Needs the muscle target (a face rig)."""
+    from ..behavior import generate_behavior
+    from ..emotion import emotion_tracks, load_model
+    if take.target != "muscles":
+        raise UserError("non-verbal behaviour and emotions need a face rig; viseme shape keys only lip-sync")
+    layers = dict(take.layers)
+    ranges = dict(take.ranges)
+    model = load_model()
+    if style is not None:
+        behavior = generate_behavior(take.utterance, style, seed, lids_busy=_winks(take.utterance, model))
+        layers["behavior"] = TrackSet({t.name: t for t in behavior.tracks if not t.name.startswith("head.")})
+        ranges.update({name: (spec.minimum, spec.maximum) for name, spec in behavior.specs.items()
+                       if not name.startswith("head.")})
+    emotions = emotion_tracks(take.utterance, take.fps, model)
+    if emotion is not None:
+        emotions = emotions.merged(_constant_expression(emotion, take.duration))
+    if len(emotions):
+        ranges.update({t.name: (model.specs[t.name].minimum, model.specs[t.name].maximum) for t in emotions})
+        layers["emotion"] = emotions.clipped(ranges)
+    return replace(take, layers=layers, ranges=ranges)
