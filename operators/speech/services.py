@@ -50,17 +50,30 @@ def _bake_take(rig_obj, take, progress, animation: str = "weights") -> None:
     print(face.bake(bpy.context, rig_obj, "animation", progress=progress, animation=animation))
 
 
+def _controls_at(take, time: float) -> dict[str, float]:
+    """Every layer of the take at ``time``, summed and clamped (the layers' mixing rule, thesis 4.3.5)."""
+    values: dict[str, float] = {}
+    for tracks in (take.tracks, *take.layers.values()):
+        for track in tracks:
+            values[track.name] = values.get(track.name, 0.0) + float(track.sample(time))
+    out = {}
+    for name, value in values.items():
+        low, high = take.ranges.get(name, (value, value))
+        out[name] = min(max(value, low), high)
+    return out
+
+
 def phoneme_cells(take, limit: int = 40) -> list:
-    """(label, controls) at the centre of each spoken phone, for a contact sheet."""
+    """(label, controls) at the centre of each spoken phone and at each emoticon's apex, for a contact sheet."""
     cells = []
     for phone in take.utterance.phones:
         if phone.is_pause:
             continue
         centre = phone.start + phone.duration / 2
         word = take.utterance.words[phone.word].text if phone.word is not None and phone.word >= 0 else ""
-        controls = {track.name: float(track.sample(centre)) for track in take.tracks}
-        cells.append((f"/{phone.phone}/ {word}".strip(), controls))
-    return cells[:limit]
+        cells.append((centre, f"/{phone.phone}/ {word}".strip()))
+    cells += [(tag.time, f"{tag.emoticon} {tag.emotion}") for tag in take.utterance.emotions if tag.time is not None]
+    return [(label, _controls_at(take, time)) for time, label in sorted(cells)][:limit]
 
 
 def _write_outputs(rig_obj, take, out: Path, sheet_path: Path | None, progress, source_audio=None,
