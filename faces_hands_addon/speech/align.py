@@ -38,6 +38,8 @@ MIN_DURATION = 0.1
 PHRASE_PAUSE = 0.15  # a silence this long inside a sentence ends an intonational phrase
 _SENTENCE_END = re.compile(r"[.?!？！…]")
 _PHRASE_END = re.compile(r"[,;:—–]")
+#: below this peak (-80 dBFS, under any microphone's noise floor) a recording holds no speech
+SILENT_PEAK = 1e-4
 
 
 def _pocketsphinx():
@@ -82,6 +84,10 @@ def align_audio(audio, transcript: str | None = None, *, sample_rate: int | None
     if len(samples) / rate < MIN_DURATION:
         raise UserError(f"the audio is too short ({len(samples) / rate * 1000:.0f} ms) to align; "
                         f"give at least {MIN_DURATION * 1000:.0f} ms")
+    peak = float(np.max(np.abs(samples)))
+    if peak < SILENT_PEAK:
+        level = f"{20 * np.log10(peak):.0f} dBFS" if peak > 0 else "digital silence"
+        raise UserError(f"the recording is silent (peak {level}): there is no speech to lip-sync")
     pcm = to_int16(to_analysis_rate(samples, rate)).tobytes()
     duration = len(samples) / rate
     pitch = track_pitch(samples, rate)

@@ -120,6 +120,12 @@ def test_bad_audio(tmp_path):
         align_audio(tmp_path / "missing.wav", "hello")
     with pytest.raises(UserError, match="sample rate"):
         align_audio(np.zeros(16000, dtype=np.float32), "hello")
+    # digital silence (or a hiss far below any microphone's noise floor) holds no speech
+    with pytest.raises(UserError, match="silent .*digital silence"):
+        align_audio(np.zeros(64000, dtype=np.float32), "hello there my friend", sample_rate=16000)
+    hiss = np.random.default_rng(1).standard_normal(64000).astype(np.float32) * 1e-5
+    with pytest.raises(UserError, match="silent"):
+        align_audio(hiss, None, sample_rate=16000)
 
 
 @pytest.mark.parametrize("wrong", [
