@@ -8,8 +8,8 @@ emotions from the emoticons in the text (4.3.5, Table 4.1) and from an emotion f
 :mod:`..emotion`), which also sets the voice by Table 4.5 (:func:`voice_settings`).
 
 The take's ``tracks`` stay the speech layer; :func:`with_nonverbal` adds ``layers["behavior"]`` and
-``layers["emotion"]``. The behaviour's head channels (``head.pitch/yaw/roll``) are left out: the face rig
-has no head joint to turn.
+``layers["emotion"]``, and the behaviour's head channels (``head.pitch/yaw/roll``, radians) as ``head``:
+the face rig has no head joint, so the head turns as a whole, about the neck.
 """
 from __future__ import annotations
 
@@ -83,10 +83,12 @@ def with_nonverbal(take: SpeechTake, *, style: str | None = "neutral", seed: int
         raise UserError("non-verbal behaviour and emotions need a face rig; viseme shape keys only lip-sync")
     layers = dict(take.layers)
     ranges = dict(take.ranges)
+    head = take.head
     model = load_model()
     if style is not None:
         behavior = generate_behavior(take.utterance, style, seed, lids_busy=_winks(take.utterance, model))
         layers["behavior"] = TrackSet({t.name: t for t in behavior.tracks if not t.name.startswith("head.")})
+        head = TrackSet({t.name: t for t in behavior.tracks if t.name.startswith("head.")})
         ranges.update({name: (spec.minimum, spec.maximum) for name, spec in behavior.specs.items()
                        if not name.startswith("head.")})
     emotions = emotion_tracks(take.utterance, take.fps, model)
@@ -95,4 +97,4 @@ def with_nonverbal(take: SpeechTake, *, style: str | None = "neutral", seed: int
     if len(emotions):
         ranges.update({t.name: (model.specs[t.name].minimum, model.specs[t.name].maximum) for t in emotions})
         layers["emotion"] = emotions.clipped(ranges)
-    return replace(take, layers=layers, ranges=ranges)
+    return replace(take, layers=layers, ranges=ranges, head=head)

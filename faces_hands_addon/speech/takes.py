@@ -36,8 +36,9 @@ Progress = Callable[[float, str], None]
 
 @dataclass
 class SpeechTake:
-    """One line of speech ready to be put on a character: ``tracks`` for the speech layer, and ``layers``
-    (``"behavior"``, ``"emotion"``; see :mod:`.performance`) for the other layers of a face rig."""
+    """One line of speech ready to be put on a character: ``tracks`` for the speech layer, ``layers``
+    (``"behavior"``, ``"emotion"``; see :mod:`.performance`) for the other layers of a face rig, and
+    ``head`` (``head.pitch``/``head.yaw``/``head.roll`` in radians) for the head's rotation."""
 
     utterance: Utterance
     tracks: TrackSet
@@ -45,6 +46,7 @@ class SpeechTake:
     fps: float
     ranges: dict[str, tuple[float, float]]
     layers: dict[str, TrackSet] = field(default_factory=dict)
+    head: TrackSet = field(default_factory=TrackSet)
 
     @property
     def duration(self) -> float:

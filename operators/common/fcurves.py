@@ -51,22 +51,24 @@ def remove_fcurves(id_block, data_path_prefixes: tuple[str, ...]) -> int:
     return len(doomed)
 
 
-def write_curves(id_block, curves: dict[str, tuple[np.ndarray, np.ndarray]], action_name: str,
+def write_curves(id_block, curves: dict, action_name: str,
                  group: str = "Faces & Hands", interpolation: str = "LINEAR") -> list:
-    """Write ``data_path -> (frames, values)`` as F-curves (replacing curves with the same path).
+    """Write ``data_path -> (frames, values)`` as F-curves (replacing curves with the same path); a key
+    ``(data_path, index)`` names one element of an array property (``("delta_location", 2)``).
 
     Keys are set with ``foreach_set`` (no Python loop over keys)."""
     bag = _channelbag(id_block, action_name)
-    existing = {fc.data_path: fc for fc in bag.fcurves if fc.array_index == 0}
+    existing = {(fc.data_path, fc.array_index): fc for fc in bag.fcurves}
     group_obj = bag.groups.get(group) if hasattr(bag, "groups") else None
     if group_obj is None and hasattr(bag, "groups"):
         group_obj = bag.groups.new(group)
     written = []
     interpolation_id = bpy.types.Keyframe.bl_rna.properties["interpolation"].enum_items[interpolation].value
-    for data_path, (frames, values) in curves.items():
-        if data_path in existing:
-            bag.fcurves.remove(existing[data_path])
-        fcurve = bag.fcurves.new(data_path, index=0)
+    for key, (frames, values) in curves.items():
+        data_path, index = key if isinstance(key, tuple) else (key, 0)
+        if (data_path, index) in existing:
+            bag.fcurves.remove(existing[data_path, index])
+        fcurve = bag.fcurves.new(data_path, index=index)
         if group_obj is not None:
             fcurve.group = group_obj
         frames = np.asarray(frames, dtype=np.float32)

@@ -27,6 +27,7 @@ from ...faces_hands_addon.speech.phonemes import VISEME_ALIASES
 from ..common import controls, fcurves
 from ..common.rig_store import is_rig
 from ..common.timing import scene_fps, seconds_to_frames
+from . import head as head_motion
 
 STRIP_PREFIX = "FH Speech"
 #: object property holding the last take's mouth cues (Rhubarb shapes), for File > Export > Mouth Cues
@@ -71,6 +72,7 @@ def _curves_for_take(obj, take, scene, start_frame):
             for track in tracks:
                 curves[controls.data_path(track.name, layer)] = (
                     seconds_to_frames(track.times, scene, start_frame), track.values)
+        curves.update(head_motion.head_curves(obj, take.head, scene, start_frame))
     else:
         owner = obj.data.shape_keys
         present = viseme_keys(obj)
@@ -84,7 +86,12 @@ def _curves_for_take(obj, take, scene, start_frame):
 def _remove_previous_take(scene, obj, owner, take_target: str, layers=()) -> None:
     if take_target == "muscles":
         owned = {"speech", *layers, *str(obj.get(TAKE_LAYERS_PROPERTY, "")).split()}
-        fcurves.remove_fcurves(owner, tuple(controls.layer_prefix(layer) for layer in sorted(owned)))
+        head = "head" in owned
+        owned.discard("head")
+        fcurves.remove_fcurves(owner, tuple(controls.layer_prefix(layer) for layer in sorted(owned))
+                               + (head_motion.HEAD_PATHS if head else ()))
+        if head:
+            head_motion.reset_head(obj)
         if TAKE_LAYERS_PROPERTY in obj:
             del obj[TAKE_LAYERS_PROPERTY]
     else:
@@ -157,16 +164,17 @@ def apply_take(scene, obj, take, *, start_frame: int | None = None, audio_path: 
             for track in tracks:
                 low, high = take.ranges.get(track.name, (0.0, 1.0))
                 controls.ensure_property(obj, track.name, layer, low, high)
-    _remove_previous_take(scene, obj, owner, take.target, take.layers)
+    owned = [*take.layers, *(["head"] if any(isinstance(k, tuple) for k in curves) else [])]
+    _remove_previous_take(scene, obj, owner, take.target, owned)
     try:
         fcurves.write_curves(owner, curves, action_name=f"{obj.name} Speech", group="Speech")
         if add_sound:
             _add_sound_strip(scene, obj, take, start, audio_path)
         obj[CUES_PROPERTY] = _cues_json(take)
-        if take.layers:
-            obj[TAKE_LAYERS_PROPERTY] = " ".join(sorted(take.layers))
+        if owned:
+            obj[TAKE_LAYERS_PROPERTY] = " ".join(sorted(owned))
     except Exception:
-        _remove_previous_take(scene, obj, owner, take.target, take.layers)
+        _remove_previous_take(scene, obj, owner, take.target, owned)
         raise
     end_frame = int(np.ceil(start + take.duration * scene_fps(scene)))
     extended = ""

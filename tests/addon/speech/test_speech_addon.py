@@ -230,13 +230,14 @@ def test_speak_with_behaviour_and_emotion_puts_each_on_its_layer(bpy_clean):
     assert max(k.co[1] for k in lids.keyframe_points) == pytest.approx(1.0, abs=1e-6)     # a full blink
     smile = curves['["fh.emotion.zygomaticus_major_L"]']
     assert min(k.co[1] for k in smile.keyframe_points) > 0.2                 # joy all through the take
-    assert rig["fh_take_layers"] == "behavior emotion"
+    assert rig["fh_take_layers"] == "behavior emotion head"
+    assert max(abs(a) for a in rig.delta_rotation_euler) < 0.35        # the head turns with the speech
     # lip sync only again: the previous take's behaviour and emotion go with it, the artist's keys stay
     settings.behavior_style, settings.speech_emotion = "NONE", ""
     assert bpy.ops.faces_hands.speak_text(text="Hello.") == {"FINISHED"}
     left = _curves(rig)
-    assert not [p for p in left if p.startswith(('["fh.behavior.', '["fh.emotion.'))]
-    assert "fh_take_layers" not in rig
+    assert not [p for p in left if p.startswith(('["fh.behavior.', '["fh.emotion.', "delta_"))]
+    assert "fh_take_layers" not in rig and tuple(rig.delta_rotation_euler) == (0.0, 0.0, 0.0)
 
 
 def _glb_weight_animation(path):
@@ -257,6 +258,11 @@ def _glb_weight_animation(path):
     for animation in doc["animations"]:
         for channel in animation["channels"]:
             node = doc["nodes"][channel["target"]["node"]]
+            if channel["target"]["path"] != "weights":
+                sampler = animation["samplers"][channel["sampler"]]
+                times = floats(sampler["input"])
+                out[node["name"], channel["target"]["path"]] = (times, floats(sampler["output"]).reshape(len(times), -1))
+                continue
             names = doc["meshes"][node["mesh"]]["extras"]["targetNames"]
             sampler = animation["samplers"][channel["sampler"]]
             times = floats(sampler["input"])
@@ -272,7 +278,15 @@ def test_cli_speak_thesis_example_with_behaviour_exports_blinks_wink_and_smile(i
     out = tmp_path / "hi.glb"
     result = run_fh(installed, "speak", "--text", text, "--style", "neutral", "--seed", "1", "--out", out)
     assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
-    times, weights = max(_glb_weight_animation(out).values(), key=lambda tw: len(tw[1]))
+    animation = _glb_weight_animation(out)
+    times, weights = max((v for k, v in animation.items() if isinstance(k, str)), key=lambda tw: len(tw[1]))
+    # the head moves as a whole: the root node's rotation, small (raises of at most ~3 deg, tilts, turns)
+    rotations = [v for k, v in animation.items() if isinstance(k, tuple) and k[1] == "rotation"]
+    assert len(rotations) == 1, list(animation)
+    _, quaternions = rotations[0]
+    rest = quaternions[0]
+    angles = 2 * np.arccos(np.clip(np.abs(quaternions @ rest), 0, 1))
+    assert 0.01 < angles.max() < 0.35
     assert weights["eyeBlinkLeft"].max() > 0.6 and weights["eyeBlinkRight"].max() > 0.6     # blinks
     wink = next(t.time for t in synthesize(text).emotions if t.emotion == "kidding")
     at = int(np.argmin(np.abs(times - wink)))

@@ -23,7 +23,10 @@ def test_layers_of_the_thesis_example(take):
     assert set(performed.layers) == {"behavior", "emotion"}
     assert performed.tracks is take.tracks                          # the speech layer is untouched
     behavior, emotion = performed.layers["behavior"], performed.layers["emotion"]
-    assert not any(t.name.startswith("head.") for t in behavior)   # the face rig has no head joint
+    assert not any(t.name.startswith("head.") for t in behavior)   # no face control: the head turns whole
+    pitch = performed.head["head.pitch"]
+    assert 0.01 < pitch.values.max() <= np.radians(3.0) + 1e-9      # raised at pitch maxima, at most ~3 deg
+    assert set(performed.head.names) == {"head.pitch", "head.yaw", "head.roll"}
     lids = behavior["eyelid_close_L"]
     assert lids.values.max() == pytest.approx(1.0)                  # blinks close the lids
     # the two emoticons: a smile at each, and the wink of ";-)" on one eye only

@@ -1,0 +1,79 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The head moving as a whole with the speech (thesis 4.2.1, 4.3.5: raised at pitch maxima, tilted,
+turned away at the start of a turn): a take's head channels become the face rig object's *delta*
+rotation about a neck pivot, so the artist's own location/rotation keys are never touched. The eyes,
+teeth and tongue are parented to the rig object and follow; exports carry it as the root node's
+rotation and translation in the take's clip.
+
+Blender applies the delta rotation after the object's own rotation (``matrix = D @ R``), so turning by
+``D`` about the pivot ``c`` (the object's own coordinates) needs ``delta_location = c' - D c'`` with
+``c' = R S c``.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..common.timing import seconds_to_frames
+
+HEAD_PATHS = ("delta_rotation_euler", "delta_location")
+
+
+def neck_pivot(obj) -> np.ndarray:
+    """A point at the back of the head, low near the jaw's hinge, in the object's own coordinates (the head
+    faces -Y with Z up): the middle in X, the back in Y, 15 % of the height above the lowest point."""
+    co = np.empty(len(obj.data.vertices) * 3)
+    obj.data.vertices.foreach_get("co", co)
+    co = co.reshape(-1, 3)
+    low, high = co.min(axis=0), co.max(axis=0)
+    return np.array([(low[0] + high[0]) / 2, high[1], low[2] + 0.15 * (high[2] - low[2])])
+
+
+EULER_ORDERS = ("XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX")
+
+
+def _own_rotation_scale(obj) -> np.ndarray:
+    """``R S`` of the object's own transform (without its delta)."""
+    import mathutils
+    mode = obj.rotation_mode
+    if mode == "QUATERNION":
+        rotation = obj.rotation_quaternion.to_matrix()
+    elif mode == "AXIS_ANGLE":
+        angle, *axis = obj.rotation_axis_angle
+        rotation = mathutils.Matrix.Rotation(angle, 3, axis)
+    else:
+        rotation = obj.rotation_euler.to_matrix()
+    return np.array(rotation) @ np.diag(np.array(obj.scale))
+
+
+def head_curves(obj, head, scene, start_frame: float) -> dict:
+    """``(data_path, index) -> (frames, values)`` of the delta rotation and location that turn ``obj`` by
+    the take's ``head`` tracks (``head.pitch`` + raises the chin, ``head.yaw`` + turns to the character's
+    left, ``head.roll`` + tilts the top to its left); empty without head tracks, or for an object whose
+    rotation is a quaternion or axis-angle (its delta is then a quaternion, which this does not write)."""
+    tracks = {t.name: t for t in head}
+    if not tracks or obj.rotation_mode not in EULER_ORDERS:
+        return {}
+    times = np.unique(np.concatenate([t.times for t in tracks.values()]))
+
+    def angle(name):
+        return tracks[name].sample(times) if name in tracks else np.zeros_like(times)
+    # facing -Y: chin up is a negative turn about X; left (+X) is positive about Z; top to +X is positive about Y
+    rx, ry, rz = -angle("head.pitch"), angle("head.roll"), angle("head.yaw")
+    import mathutils
+    order = obj.rotation_mode if obj.rotation_mode in EULER_ORDERS else "XYZ"
+    turn = np.array([np.array(mathutils.Euler(angles, order).to_matrix()) for angles in zip(rx, ry, rz)])
+    pivot = _own_rotation_scale(obj) @ neck_pivot(obj)
+    delta_location = pivot[None, :] - turn @ pivot
+    frames = seconds_to_frames(times, scene, start_frame)
+    curves = {}
+    for index, values in enumerate((rx, ry, rz)):
+        curves["delta_rotation_euler", index] = (frames, values)
+    for index in range(3):
+        curves["delta_location", index] = (frames, delta_location[:, index])
+    return curves
+
+
+def reset_head(obj) -> None:
+    """The delta transform back to rest (after its F-curves are removed)."""
+    obj.delta_rotation_euler = (0.0, 0.0, 0.0)
+    obj.delta_location = (0.0, 0.0, 0.0)
