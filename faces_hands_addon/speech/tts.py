@@ -15,6 +15,7 @@ Decisions (documented for callers):
   "Chinese letter") are named in ``Utterance.warnings`` (``speech.words.unreadable_characters``).
 * Text with nothing to speak -- empty, blank, or only emoticons -- raises :class:`UserError`
   (an emotion needs words to be timed against; thesis 4.3.5).
+* A phoneme event that is only a length mark (``ː``, Konkani) lengthens the phone before it.
 * espeak sometimes reports a phone with zero duration (a final /l/ folded into the vowel before a
   pause); it is given the last 35 % of the phone before it so every phone has a visible segment.
 * The two syntheses can differ by a few samples (espeak keeps state between calls); only the phone
@@ -136,7 +137,7 @@ def synthesize(text: str, voice: str = "en-us", rate: float = 175, pitch: float 
                 phrase_end_tokens.add(last_token)
             current_token = -1
         elif event.kind == espeak.EVENT_PHONEME:
-            if event.name.startswith("("):  # a language switch marker such as "(en)", not a phone
+            if espeak.not_a_phone(event.name):  # a language switch "(en)" or a lone length mark
                 phoneme_index += 1
                 continue
             bare, stress = split_stress(event.name)

@@ -18,7 +18,7 @@ RawPhone = tuple
 def _spoken_count(events) -> int:
     """Number of phoneme events that are phones (no pauses ``_``, no language switches ``(xx)``)."""
     return sum(1 for e in events if e.kind == espeak.EVENT_PHONEME and e.name
-               and not e.name.startswith(("_", "(")))
+               and not e.name.startswith("_") and not espeak.not_a_phone(e.name))
 
 
 def isolated_counts(words: list[str], voice: str, rate: float) -> list[int]:
