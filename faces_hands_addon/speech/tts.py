@@ -148,12 +148,8 @@ def synthesize(text: str, voice: str = "en-us", rate: float = 175, pitch: float 
             if token >= 0:
                 last_token = token
             phoneme_index += 1
-    if unknown:
-        warnings.append(f"unknown espeak phonemes read as schwa: {' '.join(sorted(unknown))}")
+    warnings.extend(_reading_warnings(unknown, named.events, cleaned, voice, language))
     raw_phones = _every_word(raw_phones, spans, cleaned, voice, rate, token_sentence, phrase_end_tokens)
-    unreadable = words.unreadable_warning(words.unreadable_characters(named.events, cleaned, voice, language),
-                                          language)
-    warnings.extend([unreadable] if unreadable else [])
 
     phones, token_phones = _timed_phones(raw_phones, sr, total)
     drafts = [WordDraft(spans[t][0], spans[t][1], idx, token_sentence.get(t, 0), t in phrase_end_tokens)
@@ -162,6 +158,14 @@ def synthesize(text: str, voice: str = "en-us", rate: float = 175, pitch: float 
     return assemble_utterance(text=text, language=language, samples=samples, sample_rate=sr,
                               phones=phones, words=drafts, emotions=tags, pitch=contour, source="tts",
                               warnings=warnings)
+
+
+def _reading_warnings(unknown: set[str], events, text: str, voice: str, language: str) -> list[str]:
+    """Warnings about what espeak-ng could not read: phoneme names outside every table, and characters
+    the voice has no rules for (:func:`words.unreadable_characters`)."""
+    found = [f"unknown espeak phonemes read as schwa: {' '.join(sorted(unknown))}"] if unknown else []
+    unreadable = words.unreadable_warning(words.unreadable_characters(events, text, voice, language), language)
+    return found + ([unreadable] if unreadable else [])
 
 
 def _every_word(raw_phones, spans, text, voice, rate, token_sentence, phrase_end_tokens):

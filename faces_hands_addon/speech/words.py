@@ -9,6 +9,8 @@ repairs the first and reports the second; :func:`tts.synthesize` calls both.
 """
 from __future__ import annotations
 
+import unicodedata
+
 from . import espeak
 
 #: a phone event as :func:`tts.synthesize` collects it: (symbol, unified phones, stress, sample, token)
@@ -123,6 +125,8 @@ def unreadable_warning(found: dict[str, str], language: str) -> str | None:
     if not found:
         return None
     readers = ", ".join(sorted(set(found.values())))
+    example = ", e.g. a kanji as the words 'Chinese letter'" if any(
+        "CJK" in unicodedata.name(c, "") for c in found) else ""
     return (f"espeak-ng's '{language}' voice cannot read {len(found)} character(s): {' '.join(found)} "
-            f"(it read them with its '{readers}' rules, e.g. a kanji as 'Chinese letter'); the mouth "
-            "moves for those words, not for the text; write them in a script the voice reads")
+            f"(it read them with its '{readers}' rules{example}); the mouth moves for what espeak said, "
+            "not for the text; write them in a script the voice reads")

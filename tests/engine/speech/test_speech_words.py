@@ -82,6 +82,13 @@ def test_kanji_are_named_as_unreadable():
     warning = [w for w in u.warnings if "cannot read" in w]
     assert len(warning) == 1, u.warnings
     assert all(c in warning[0] for c in "日本語") and "テ" not in warning[0]
+    assert "'en' rules" in warning[0] and "Chinese letter" in warning[0]
+    assert [w.text for w in u.words] == ["日本語のテキストです"]  # the word is still kept, spoken as espeak did
+
+
+def test_long_vowel_mark_alone_is_unreadable_but_fine_inside_a_word():
+    assert [w for w in synthesize("ー", voice="ja").warnings if "ー" in w]
+    assert not [w for w in synthesize("ラーメン、ください。", voice="ja").warnings if "cannot read" in w]
 
 
 def test_readable_texts_have_no_unreadable_warning():
