@@ -12,44 +12,63 @@ from __future__ import annotations
 import unicodedata
 
 from . import espeak
+from .phonemes import split_stress
 
 #: a phone event as :func:`tts.synthesize` collects it: (symbol, unified phones, stress, sample, token)
 RawPhone = tuple
 
 
-def _spoken_count(events) -> int:
-    """Number of phoneme events that are phones (no pauses ``_``, no language switches ``(xx)``)."""
-    return sum(1 for e in events if e.kind == espeak.EVENT_PHONEME and e.name
-               and not e.name.startswith("_") and not espeak.not_a_phone(e.name))
+def _spoken(events) -> list[str]:
+    """espeak-ng's names (stress stripped) of the phoneme events that are phones (no pauses ``_``, no
+    language switches ``(xx)``, no lone length marks)."""
+    return [split_stress(e.name)[0] for e in events if e.kind == espeak.EVENT_PHONEME and e.name
+            and not e.name.startswith("_") and not espeak.not_a_phone(e.name)]
 
 
-def isolated_counts(words: list[str], voice: str, rate: float) -> list[int]:
-    """How many phones espeak-ng gives each word spoken alone (its own phonemisation of the word)."""
-    return [_spoken_count(espeak.synthesize_raw(w, voice, rate).events) for w in words]
+def isolated_phonemes(words: list[str], voice: str, rate: float) -> list[list[str]]:
+    """espeak-ng's phonemisation of each word spoken alone (its phone names, in order)."""
+    return [_spoken(espeak.synthesize_raw(w, voice, rate).events) for w in words]
 
 
-def allocate(total: int, counts: list[int]) -> list[int]:
-    """Share ``total`` phones between words that espeak phonemised alone with ``counts`` phones.
+def _distance(a: list[str], b: list[str]) -> int:
+    """Levenshtein distance between two phone-name sequences."""
+    row = list(range(len(b) + 1))
+    for i, x in enumerate(a, 1):
+        previous, row[0] = row[0], i
+        for j, y in enumerate(b, 1):
+            previous, row[j] = row[j], min(row[j] + 1, row[j - 1] + 1, previous + (x != y))
+    return row[-1]
 
-    When the counts add up to ``total`` (the usual case: the merged event is the words' phonemes run
-    together) the split is exact. Otherwise the boundaries are placed in proportion to the counts
-    (cumulative share of the words' isolated phones, rounded), then nudged so that every word keeps at
-    least one phone while there are phones to give."""
-    k = len(counts)
+
+def allocate(merged: list[str], isolated: list[list[str]]) -> list[int]:
+    """How many of the ``merged`` event's phones belong to each word, given each word's own
+    phonemisation ``isolated``.
+
+    When the words' phone counts add up to the event's (the usual case: the merged event is the words'
+    phonemes run together) the split is exact. Otherwise the split is the one whose pieces are closest
+    to the words' own phonemisations (least total edit distance over phone names, dynamic programming
+    over the cut points), every word keeping at least one phone while there are phones to give."""
+    total, k = len(merged), len(isolated)
+    counts = [len(x) for x in isolated]
     if sum(counts) == total and min(counts) > 0:
-        return list(counts)
-    weights = [max(c, 1) for c in counts]
-    whole = float(sum(weights))
-    bounds, acc = [0], 0
-    for w in weights[:-1]:
-        acc += w
-        bounds.append(int(round(total * acc / whole)))
-    bounds.append(total)
-    for i in range(1, k):  # at least one phone each, from the left ...
-        bounds[i] = max(bounds[i], min(bounds[i - 1] + 1, total))
-    for i in range(k - 1, 0, -1):  # ... and room left for the words after
-        bounds[i] = min(bounds[i], max(bounds[i + 1] - 1, 0))
-    return [bounds[i + 1] - bounds[i] for i in range(k)]
+        return counts
+    if total < k:  # fewer phones than words: one each, from the left
+        return [1] * total + [0] * (k - total)
+    inf = float("inf")
+    best = [[inf] * (total + 1) for _ in range(k + 1)]
+    cut = [[0] * (total + 1) for _ in range(k + 1)]
+    best[0][0] = 0
+    for i in range(1, k + 1):
+        for j in range(i, total - (k - i) + 1):
+            for b in range(i - 1, j):
+                cost = best[i - 1][b] + _distance(merged[b:j], isolated[i - 1])
+                if cost < best[i][j]:
+                    best[i][j], cut[i][j] = cost, b
+    shares, j = [], total
+    for i in range(k, 0, -1):
+        shares.append(j - cut[i][j])
+        j = cut[i][j]
+    return shares[::-1]
 
 
 def merge_groups(raw_phones: list[RawPhone], n_tokens: int) -> list[list[int]]:
@@ -69,14 +88,14 @@ def split_merged(raw_phones: list[RawPhone], spans: list[tuple[int, int]], text:
     """Give the words of every merged word event their own phones.
 
     The phones of the event (in order) are shared between its words by :func:`allocate`, using
-    espeak-ng's phonemisation of each word spoken alone (:func:`isolated_counts`) to know how many
+    espeak-ng's phonemisation of each word spoken alone (:func:`isolated_phonemes`) to know which
     belong to each. Returns the phones with their new tokens and ``{merged token: head token}``."""
     out = list(raw_phones)
     head_of: dict[int, int] = {}
     for group in merge_groups(raw_phones, len(spans)):
         indices = [i for i, r in enumerate(out) if r[4] == group[0]]
-        counts = isolated_counts([text[a:b] for a, b in (spans[t] for t in group)], voice, rate)
-        shares = allocate(len(indices), counts)
+        isolated = isolated_phonemes([text[a:b] for a, b in (spans[t] for t in group)], voice, rate)
+        shares = allocate([out[i][0] for i in indices], isolated)
         position = 0
         for token, share in zip(group, shares):
             for i in indices[position:position + share]:
