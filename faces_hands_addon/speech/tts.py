@@ -6,8 +6,8 @@ synthesises the cleaned text twice (once reporting its own phoneme names, which 
 each phone and carry stress and pauses; once reporting IPA names, which map any voice's phonemes
 onto the unified inventory); the events give words (merged per text token; a word event that covers
 several text words is split back, so every text word is one :class:`Word`: ``speech.words``),
-sentences (espeak's sentence events), intonational phrases (espeak's clause ends, which follow punctuation and carry
-its pauses) and phone timing; F0 is measured on the audio.
+sentences (espeak's sentence events), intonational phrases (espeak's clause ends, which follow
+punctuation and carry its pauses) and phone timing; F0 is measured on the audio.
 
 Decisions (documented for callers):
 
