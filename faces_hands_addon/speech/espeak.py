@@ -230,6 +230,12 @@ def _collect(wav, count, events) -> int:
     return 0
 
 
+def not_a_phone(name: str) -> bool:
+    """A phoneme event that is no phone of its own: a language switch such as ``(en)``, or a bare length
+    mark (``ː`` / ``:``, reported by some voices after a vowel), which lengthens the phone before it."""
+    return name.startswith("(") or (bool(name) and set(name) <= set("ː:ˈˌ'ˌ,"))
+
+
 def available() -> bool:
     """True when libespeak-ng can be loaded."""
     try:
@@ -300,12 +306,43 @@ def _check_range(label: str, value, bounds) -> int:
     return number
 
 
+def _dictionary_name(data: bytes, identifier: str, languages: list[str]) -> str:
+    """The dictionary a voice loads: its file's ``dictionary`` line, else its language up to the first
+    ``-`` ("en-us" -> "en"), as espeak-ng's voice loader does."""
+    path = os.path.join(data.decode(), "lang", *identifier.split("/"))
+    try:
+        with open(path, encoding="utf-8", errors="replace") as handle:
+            for line in handle:
+                parts = line.split()
+                if len(parts) >= 2 and parts[0] == "dictionary":
+                    return parts[1]
+    except OSError:
+        pass
+    return (languages[0] if languages else identifier.rsplit("/", 1)[-1]).split("-")[0].lower()
+
+
+def _check_dictionary(lib, voice: str) -> None:
+    """A voice whose ``<language>_dict`` is missing from the data folder (the wheel ships Faroese and
+    Karakalpak without theirs) crashes libespeak-ng in the synthesis: refuse it before that."""
+    if not _Engine.data:
+        return
+    current = lib.espeak_GetCurrentVoice()
+    if not current or not current.contents.identifier:
+        return
+    identifier = current.contents.identifier.decode("utf-8", errors="replace")
+    name = _dictionary_name(_Engine.data, identifier, _languages(current.contents))
+    if not os.path.exists(os.path.join(_Engine.data.decode(), f"{name}_dict")):
+        raise UserError(f"espeak-ng voice {voice!r} has no pronunciation dictionary ({name}_dict) in "
+                        "this espeak-ng data; choose another voice (speech.list_voices() lists them)")
+
+
 def _select_voice(lib, voice: str) -> None:
     if not isinstance(voice, str) or not voice.strip():
         raise UserError("no voice given; use an espeak-ng voice such as 'en-us' or 'de'")
     if lib.espeak_SetVoiceByName(voice.strip().encode("utf-8")) != 0:
         raise UserError(f"unknown espeak-ng voice {voice!r}; use a language code such as 'en-us', "
                         "'de', 'ru' or 'el' (speech.list_voices() lists them all)")
+    _check_dictionary(lib, voice)
 
 
 def synthesize_raw(text: str, voice: str = "en-us", rate: float = 175, pitch: float = 50,

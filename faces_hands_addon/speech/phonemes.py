@@ -120,6 +120,16 @@ _IPA = {
     "ɰ": "w", "j": "y", "ʲ": "y",
 }
 
+#: letters espeak-ng prints in IPA mode that are not the IPA letters: Greek look-alikes (Danish ε, Lule
+#: Sami Φ) and the ts ligature ʦ (Luxembourgish)
+_IPA_EXTRA = {"ε": "eh", "Φ": "f", "ɸ": "f", "ʦ": "ts", "ʣ": "z", "ʧ": "ch", "ʤ": "jh"}
+_IPA.update(_IPA_EXTRA)
+
+#: Languages whose espeak-ng IPA writes the palatal stops c ɟ for the affricates ch / jh (Hindi च ज and
+#: the other Indic scripts): they reach the CH viseme, not kk
+_PALATAL_AFFRICATES = {"hi", "bn", "as", "gu", "kn", "ml", "mr", "ne", "or", "pa", "sd", "ta", "te",
+                       "ur", "si", "kok", "bpy"}
+
 # --- SAMPA (English and German conventions, and most of what espeak prints for other voices) ------
 _SAMPA = {
     "i": "iy", "i:": "iy", "I": "ih", "e": "e", "e:": "e", "E": "eh", "E:": "eh", "{": "ae",
@@ -152,6 +162,10 @@ _ESPEAK_DE = {
 }
 
 _ESPEAK_COMMON = {";": "y", "@-": "ax", "a#": "a", "I#": "ih", "E#": "eh", "0": "ao"}
+
+#: espeak-ng names that come through its IPA mode unconverted (Kyrgyz N S tS dZ, Icelandic l# r# tl#,
+#: Amharic t`, Hakka n^, Irish A, Danish ?a): IPA, else SAMPA
+_ESPEAK_IPA_FALLBACK = {**_SAMPA, **_IPA}
 
 _STRESS_PRIMARY = ("'", "ˈ", '"')
 _STRESS_SECONDARY = (",", "ˌ", "%")
@@ -205,12 +219,16 @@ def from_arpabet(symbol: str) -> tuple[str, ...]:
 
 
 def _strip_ipa_marks(text: str) -> str:
-    """Drop diacritics (combining marks, tie bars, aspiration, syllabicity ...) but keep letters
-    such as ç whole (no decomposition) and the length mark ː."""
+    """Drop diacritics (combining marks, tie bars, aspiration, syllabicity, the labialisation ᵝ of
+    Japanese ɯᵝ ...) but keep letters of the table such as ç whole and the length mark ː; a letter
+    that only precomposes a base with a mark (nasal ã õ ũ ẽ ĩ of Portuguese, Hindi, Guarani) is
+    its base."""
     kept = []
     for ch in unicodedata.normalize("NFC", text):
-        if unicodedata.combining(ch) or ch in "͡‿ˑʰʷˠˤ-.|‖":
+        if unicodedata.combining(ch) or ch in "͡‿ˑʰʱʷˠˤᵝ-.|‖":
             continue
+        if ch not in _IPA and ch not in _IPA_EXTRA:
+            ch = "".join(c for c in unicodedata.normalize("NFD", ch) if not unicodedata.combining(c))
         kept.append(ch)
     return "".join(kept)
 
@@ -246,8 +264,12 @@ def from_ipa(symbol: str, language: str = "") -> tuple[str, ...]:
         bare = bare.replace("ʲ", "")
     if "ɾ" in bare and not language.lower().startswith("en"):
         bare = bare.replace("ɾ", "r")
+    if language.lower().split("-")[0] in _PALATAL_AFFRICATES:
+        bare = bare.replace("c", "tʃ").replace("ɟ", "dʒ")
     result = _greedy(bare, _IPA, 3)
-    if result is None:
+    if result is None:  # espeak prints its own (SAMPA-like) name where a phoneme has no IPA name
+        result = _greedy(re.sub(r"[#\[\]`^;/]", "", bare), _ESPEAK_IPA_FALLBACK, 3)
+    if not result:
         raise UserError(f"cannot read the IPA symbol {symbol!r}")
     return result
 

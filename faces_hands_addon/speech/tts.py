@@ -4,14 +4,18 @@
 Steps: the emoticons of Table 4.1 are blanked out of the text and kept as emotion tags; espeak-ng
 synthesises the cleaned text twice (once reporting its own phoneme names, which are the ``symbol`` of
 each phone and carry stress and pauses; once reporting IPA names, which map any voice's phonemes
-onto the unified inventory); the events give words (merged per text token), sentences (espeak's
-sentence events), intonational phrases (espeak's clause ends, which follow punctuation and carry
-its pauses) and phone timing; F0 is measured on the audio.
+onto the unified inventory); the events give words (merged per text token; a word event that covers
+several text words is split back, so every text word is one :class:`Word`: ``speech.words``),
+sentences (espeak's sentence events), intonational phrases (espeak's clause ends, which follow
+punctuation and carry its pauses) and phone timing; F0 is measured on the audio.
 
 Decisions (documented for callers):
 
+* Characters the voice has no rules for (kanji in ``ja``: espeak reads them as the English words
+  "Chinese letter") are named in ``Utterance.warnings`` (``speech.words.unreadable_characters``).
 * Text with nothing to speak -- empty, blank, or only emoticons -- raises :class:`UserError`
   (an emotion needs words to be timed against; thesis 4.3.5).
+* A phoneme event that is only a length mark (``ː``, Konkani) lengthens the phone before it.
 * espeak sometimes reports a phone with zero duration (a final /l/ folded into the vowel before a
   pause); it is given the last 35 % of the phone before it so every phone has a visible segment.
 * The two syntheses can differ by a few samples (espeak keeps state between calls); only the phone
@@ -24,7 +28,7 @@ import unicodedata
 import numpy as np
 
 from ..core.errors import UserError
-from . import espeak
+from . import espeak, words
 from .emoticons import extract_emoticons
 from .phonemes import SILENCE, from_espeak, from_ipa, split_stress
 from .pitch import track_pitch
@@ -133,7 +137,7 @@ def synthesize(text: str, voice: str = "en-us", rate: float = 175, pitch: float 
                 phrase_end_tokens.add(last_token)
             current_token = -1
         elif event.kind == espeak.EVENT_PHONEME:
-            if event.name.startswith("("):  # a language switch marker such as "(en)", not a phone
+            if espeak.not_a_phone(event.name):  # a language switch "(en)" or a lone length mark
                 phoneme_index += 1
                 continue
             bare, stress = split_stress(event.name)
@@ -144,8 +148,8 @@ def synthesize(text: str, voice: str = "en-us", rate: float = 175, pitch: float 
             if token >= 0:
                 last_token = token
             phoneme_index += 1
-    if unknown:
-        warnings.append(f"unknown espeak phonemes read as schwa: {' '.join(sorted(unknown))}")
+    warnings.extend(_reading_warnings(unknown, named.events, cleaned, voice, language))
+    raw_phones = _every_word(raw_phones, spans, cleaned, voice, rate, token_sentence, phrase_end_tokens)
 
     phones, token_phones = _timed_phones(raw_phones, sr, total)
     drafts = [WordDraft(spans[t][0], spans[t][1], idx, token_sentence.get(t, 0), t in phrase_end_tokens)
@@ -154,6 +158,30 @@ def synthesize(text: str, voice: str = "en-us", rate: float = 175, pitch: float 
     return assemble_utterance(text=text, language=language, samples=samples, sample_rate=sr,
                               phones=phones, words=drafts, emotions=tags, pitch=contour, source="tts",
                               warnings=warnings)
+
+
+def _reading_warnings(unknown: set[str], events, text: str, voice: str, language: str) -> list[str]:
+    """Warnings about what espeak-ng could not read: phoneme names outside every table, and characters
+    the voice has no rules for (:func:`words.unreadable_characters`)."""
+    found = [f"unknown espeak phonemes read as schwa: {' '.join(sorted(unknown))}"] if unknown else []
+    unreadable = words.unreadable_warning(words.unreadable_characters(events, text, voice, language), language)
+    return found + ([unreadable] if unreadable else [])
+
+
+def _every_word(raw_phones, spans, text, voice, rate, token_sentence, phrase_end_tokens):
+    """Split espeak's merged word events back into the text's words (:func:`words.split_merged`); a
+    split-off word joins its head's sentence, and the last word of the run ends the phrase if the
+    head did."""
+    raw_phones, head_of = words.split_merged(raw_phones, spans, text, voice, rate)
+    for token, head in sorted(head_of.items()):
+        if token != head:
+            token_sentence.setdefault(token, token_sentence.get(head, 0))
+    for head in sorted(set(head_of.values())):
+        run = [t for t, h in head_of.items() if h == head]
+        if head in phrase_end_tokens:
+            phrase_end_tokens.discard(head)
+            phrase_end_tokens.add(max(run))
+    return raw_phones
 
 
 def pronounce(text: str, voice: str = "en-us") -> dict[tuple[int, int], list[tuple[str, int]]]:
