@@ -98,6 +98,19 @@ def read_png(path: Path) -> np.ndarray:
         bpy.data.images.remove(image)
 
 
+def compose_sheet(tiles: list[np.ndarray], columns: int) -> np.ndarray:
+    """Equal-sized tiles (bottom row first, as :func:`read_png` gives them) laid out row by row from the top
+    left, ``columns`` per row, on a white background: one (H, W, 4) image for :func:`write_png`."""
+    rows = -(-len(tiles) // columns)
+    tile_h, tile_w = tiles[0].shape[:2]
+    sheet = np.ones((rows * tile_h, columns * tile_w, 4), dtype=np.float32)
+    for index, tile in enumerate(tiles):
+        row, col = divmod(index, columns)
+        top = (rows - 1 - row) * tile_h  # Blender images start at the bottom row
+        sheet[top:top + tile_h, col * tile_w:(col + 1) * tile_w] = tile
+    return sheet
+
+
 def write_png(array: np.ndarray, path: Path) -> None:
     """Write an (H, W, 4) float array (bottom row first) as a PNG."""
     height, width = array.shape[:2]

@@ -113,15 +113,8 @@ def render_sheet(context, obj, cells: list[Cell], out_path, cell_size=(220, 250)
             tile = tmp_dir / f"cell_{index:04d}.png"
             render.render_objects(scene, visible + [label], tile, size=cell_size, reframe=False)
             tiles.append(render.read_png(tile))
-        rows = math.ceil(len(tiles) / columns)
-        tile_h, tile_w = tiles[0].shape[:2]
-        sheet = np.ones((rows * tile_h, columns * tile_w, 4), dtype=np.float32)
-        for index, tile in enumerate(tiles):
-            row, col = divmod(index, columns)
-            top = (rows - 1 - row) * tile_h  # Blender images start at the bottom row
-            sheet[top:top + tile_h, col * tile_w:(col + 1) * tile_w] = tile
         out_path = Path(out_path)
-        render.write_png(sheet, out_path)
+        render.write_png(render.compose_sheet(tiles, columns), out_path)
         if progress:
             progress(1.0, f"contact sheet with {len(tiles)} cells")
     finally:

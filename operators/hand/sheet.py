@@ -98,14 +98,7 @@ def render_hand_sheet(context, obj, cells, out_path, view: str = "palm", columns
             tile = tmp / f"cell_{index:04d}.png"
             render.render_objects(scene, visible + [label], tile, size=cell_size, reframe=False)
             tiles.append(render.read_png(tile))
-        rows = math.ceil(len(tiles) / columns)
-        tile_h, tile_w = tiles[0].shape[:2]
-        sheet = np.ones((rows * tile_h, columns * tile_w, 4), dtype=np.float32)
-        for index, tile in enumerate(tiles):
-            row, col = divmod(index, columns)
-            top = (rows - 1 - row) * tile_h
-            sheet[top:top + tile_h, col * tile_w:(col + 1) * tile_w] = tile
-        render.write_png(sheet, Path(out_path))
+        render.write_png(render.compose_sheet(tiles, columns), Path(out_path))
         if progress:
             progress(1.0, f"hand contact sheet with {len(tiles)} cells")
     finally:

@@ -89,14 +89,7 @@ def render_sheet(context, obj, cells: list[Cell], out_path, cell_size=(260, 300)
                  progress=None, view: str = "front") -> Path:
     """Render one cell per (label, steps) on ``obj``'s model and compose them row by row into ``out_path``."""
     tiles = _render_tiles(context, obj, cells, cell_size, progress, view)
-    rows = math.ceil(len(tiles) / columns)
-    tile_h, tile_w = tiles[0].shape[:2]
-    sheet = np.ones((rows * tile_h, columns * tile_w, 4), np.float32)
-    for index, tile in enumerate(tiles):
-        row, col = divmod(index, columns)
-        top = (rows - 1 - row) * tile_h
-        sheet[top:top + tile_h, col * tile_w:(col + 1) * tile_w] = tile
-    render.write_png(sheet, Path(out_path))
+    render.write_png(render.compose_sheet(tiles, columns), Path(out_path))
     return Path(out_path)
 
 
