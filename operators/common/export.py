@@ -171,6 +171,7 @@ def export_rig(context, obj, filepath: str, roles, options: ExportOptions = Expo
         raise UserError(f"the export scale must be greater than 0, not {options.scale}")
     scene = context.scene
     kept_range = scene.frame_start, scene.frame_end
+    context.view_layer.update()      # objects removed just before (a contact sheet's label) leave the layer
     previous = [o for o in context.view_layer.objects if o.select_get()]
     active = context.view_layer.objects.active
     try:
