@@ -22,7 +22,7 @@ from ..core.controls import ControlSpec, clamp_controls
 from .layers import BASE_LAYER, LayerTable
 from .weights import bounded_nnls
 
-__all__ = ["SPEECH_LAYER", "is_viseme", "control_matrix", "semantic_weights"]
+__all__ = ["SPEECH_LAYER", "is_viseme", "control_matrix", "semantic_weights", "closure_frames", "with_closures"]
 
 SPEECH_LAYER = "speech"
 
@@ -80,3 +80,38 @@ def semantic_weights(table: LayerTable, targets: Mapping[str, Mapping[str, float
     else:
         weights[:] = _fit(matrix, speech + other)
     return weights
+
+
+def closure_frames(frames: np.ndarray, spans) -> dict[int, str]:
+    """Row -> viseme of the frames that must show a lip closure: for every span (start frame, end frame,
+    viseme; fractional frames, ``speech.closures``) each frame inside it, or the frame nearest its middle
+    when the span falls between two frames (a closure shorter than a frame still gets a closed sample)."""
+    frames = np.asarray(frames, np.float64)
+    rows: dict[int, str] = {}
+    if not len(frames):
+        return rows
+    for start, end, viseme in spans:
+        inside = np.flatnonzero((frames >= start) & (frames <= end))
+        if not len(inside):
+            middle = (start + end) / 2
+            nearest = int(np.argmin(np.abs(frames - middle)))
+            if abs(frames[nearest] - middle) > 1.0:
+                continue                                   # outside the baked range
+            inside = [nearest]
+        for row in inside:
+            rows[int(row)] = viseme
+    return rows
+
+
+def with_closures(weights: np.ndarray, names, rows: Mapping[int, str]) -> np.ndarray:
+    """``weights`` (F, T) with each closure row showing its viseme alone among the visemes (weight 1, the
+    other visemes 0): the lips shut whatever the neighbouring phones' tongue and jaw targets add. The other
+    targets (ARKit, emotions: the other layers) are kept."""
+    out = np.array(weights, np.float64, copy=True)
+    names = list(names)
+    visemes = np.array([is_viseme(n) for n in names], bool)
+    for row, viseme in rows.items():
+        if viseme in names:
+            out[row, visemes] = 0.0
+            out[row, names.index(viseme)] = 1.0
+    return out

@@ -295,3 +295,28 @@ def test_cli_speak_thesis_example_with_behaviour_exports_blinks_wink_and_smile(i
     bad = run_fh(installed, "speak", "--text", text, "--style", "shy", "--out", tmp_path / "b.glb")
     assert bad.returncode == 1 and "unknown character style 'shy'" in bad.stderr
     assert not (tmp_path / "b.glb").exists()
+
+
+def test_cli_speak_glb_shows_every_bilabial_closed_on_time(installed, tmp_path):
+    """The engine-ready weights in the file: every /p b m/ closure of the take has a key inside it (or the
+    key nearest its middle) showing viseme_PP alone, with no corrective reopening the lips."""
+    from conftest import run_fh
+    from faces_hands_addon.speech import synthesize
+    from faces_hands_addon.speech.closures import lip_closures
+    text = "Papa made a map, and Bob bought a bumpy boat."
+    out = tmp_path / "papa.glb"
+    result = run_fh(installed, "speak", "--text", text, "--out", out)
+    assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
+    times, weights = max((v for k, v in _glb_weight_animation(out).items() if isinstance(k, str)),
+                         key=lambda tw: len(tw[1]))
+    closures = lip_closures(synthesize(text).phones)
+    assert len(closures) >= 8
+    others = [n for n in weights if n.startswith("viseme_") and n != "viseme_PP"]
+    correctives = [n for n in weights if n.startswith("FH.")]
+    for closure in closures:
+        keys = np.flatnonzero((times >= closure.start - 1e-4) & (times <= closure.end + 1e-4))
+        if not len(keys):
+            keys = [int(np.argmin(np.abs(times - (closure.start + closure.end) / 2)))]
+        for k in keys:
+            assert weights["viseme_PP"][k] > 0.999, (closure, times[k])
+            assert max(weights[n][k] for n in others + correctives) < 1e-6, (closure, times[k])
