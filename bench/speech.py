@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import os
 import re
+import resource
 import subprocess
 import sys
 import tempfile
@@ -109,17 +110,20 @@ def main() -> None:
           f"tts_rt={tts_s / duration:.4f}")
 
 
-def timed_command(arguments: list[str], env: dict) -> tuple[list[tuple[float, str]], float]:
-    """Run ``./fh arguments``; every output line with the seconds since the start, and the total."""
+def timed_command(arguments: list[str], env: dict) -> tuple[list[tuple[float, str]], float, float]:
+    """Run ``./fh arguments``; every output line with the seconds since the start, the wall total and the
+    CPU seconds (user + system) of the command's processes (wall >> CPU: the machine was shared)."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     started = time.perf_counter()
     process = subprocess.Popen([str(ROOT / "fh"), *arguments], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                                text=True, bufsize=1, env={**os.environ, **env, "PYTHONUNBUFFERED": "1"})
     lines = [(time.perf_counter() - started, line.rstrip("\n")) for line in process.stdout]
     code = process.wait()
     total = time.perf_counter() - started
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if code != 0:
         sys.exit(f"./fh {arguments[0]} failed ({code}):\n" + "\n".join(line for _, line in lines[-20:]))
-    return lines, total
+    return lines, total, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
 def stage_split(lines: list[tuple[float, str]], total: float) -> tuple[float, dict[str, float]]:
@@ -157,12 +161,12 @@ def end_to_end(text: str) -> list[str]:
                 ("lipsync", ["lipsync", "--audio", str(recording), "--transcript", text,
                              "--out", str(folder / "lipsync.glb")], {})]
         for name, arguments, env in runs:
-            lines, total = timed_command(arguments, env)
+            lines, total, cpu = timed_command(arguments, env)
             speech, stages = stage_split(lines, total)
             split = ", ".join(f"{stage} {sec:.2f} s ({sec / speech:.3f}x)" for stage, sec in stages.items())
             print(f"./fh {arguments[0]}{' (shape cache off)' if env else ''}: {speech:.1f} s of speech in "
-                  f"{total:.1f} s = {total / speech:.3f}x real time; {split}")
-            keys.append(f"{name}_total_rt={total / speech:.3f}")
+                  f"{total:.1f} s = {total / speech:.3f}x real time (CPU {cpu:.1f} s); {split}")
+            keys += [f"{name}_total_rt={total / speech:.3f}", f"{name}_cpu_rt={cpu / speech:.3f}"]
             keys += [f"{name}_{re.sub(r'[^a-z]+', '_', stage).strip('_')}_rt={sec / speech:.4f}"
                      for stage, sec in stages.items()]
     return keys
