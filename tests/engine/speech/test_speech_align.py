@@ -5,7 +5,8 @@ sentences Festival's CMU ARCTIC SLT HTS voice spoke, with the segment and word t
 placed (scripts/speech_fixtures.py writes them; ground truth, since the waveform follows them). Degraded
 copies (white noise, telephone band, speed, reverb) are made here, seeded. The bounds come from
 measured errors with margin (pooled word onsets of the four clips, clean: median 15 ms, p90 39 ms;
-20 dB SNR 15/53; telephone 10/39; 1.1x speed 8/36; reverb 15/44) and labels shifted by 80 ms fail them.
+20 dB SNR 15/55; telephone 10/39; 1.1x speed 8/36; reverb 15/44) and labels shifted by 80 ms fail them
+(clean: median 80 ms either way).
 """
 from __future__ import annotations
 
