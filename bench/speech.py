@@ -1,15 +1,39 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Speech performance for 30 s of speech: text-to-speech + Utterance, forced alignment of
-recorded audio, coarticulated tracks (muscles and visemes), each also as a ratio to real time.
+"""Speech performance for 30 s of speech, end to end and by engine stage.
 
-Goals: tracks + keyframes for 30 s in < 1 s; alignment faster than 0.3x real time. (The thesis needed
-7 s for 30 s of audio on its 2002 machine.) The last line is ``RESULT key=value ...``.
+End to end (what a user waits for): ``./fh speak --text T --out x.glb`` for ~30 s of text and
+``./fh lipsync --audio F --transcript T --out x.glb`` for a ~30-s recording (Festival's CMU ARCTIC SLT
+HTS voice reading the same text: a recording our synthesiser did not make), each run as a real
+subprocess. The commands print no timing split, so the split comes from their own progress lines: every
+line of the merged stdout/stderr (``PYTHONUNBUFFERED=1``; the progress lines are flushed) is stamped as it
+arrives, and a stage is the interval between the lines that open consecutive stages:
 
-Runs the extension installed by ``make install`` (see ``_harness.py``), wheels included.
+* start-up: process start -> "synthesising speech" / "aligning audio to the transcript" (``./fh``'s
+  ``make -s install`` up-to-date check, bpy import, enabling the extension, argument checks);
+* synthesis / alignment -> "coarticulating"; coarticulation -> "tracks ready";
+* rig + keys: -> "N s of speech ... on 'FH Head'" (building the default head, writing the take's keys);
+* bake: -> "Baked ..." (weights of the ARKit/viseme/emotion targets; with the shape cache cold
+  (``FH_NO_SHAPE_CACHE=1``) every target is simulated, warm it is read from the user folder);
+* export: -> "wrote x.glb"; exit: the rest (the WAV beside it, process teardown).
+
+Each is reported in seconds and as a real-time factor (stage seconds / speech seconds; the speech length
+is the command's own "N s of speech" line). ``speak`` runs cold and warm, ``lipsync`` warm.
+
+Engine stages in the same run (``synthesize``, ``align_audio``, ``coarticulate``, ``apply_take``), best of
+a few calls: goals tracks + keyframes for 30 s in < 1 s; alignment faster than 0.3x real time. (The
+thesis needed 7 s for 30 s of audio on its 2002 machine.) The last line is ``RESULT key=value ...``.
+
+Runs the extension installed by ``make install`` (see ``_harness.py``), wheels included:
+``.venv/bin/python bench/speech.py``.
 """
 from __future__ import annotations
 
+import os
+import re
+import resource
+import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -22,6 +46,14 @@ from faces_hands_addon.speech import (align_audio, coarticulate, compare_phone_o
                                       load_articulation, load_viseme_targets, synthesize)
 
 SECONDS = 30.0
+ROOT = Path(__file__).resolve().parents[1]
+# (stage, the line that ends it); start-up ends at the first progress line (see the module docstring)
+STAGE_ENDS = (("start-up", re.compile(r"\] (synthesising speech|aligning audio)")),
+              ("synthesis/alignment", re.compile(r"\] coarticulating")),
+              ("coarticulation", re.compile(r"\] tracks ready")),
+              ("rig + keys", re.compile(r"[0-9.]+ s of speech \(")),
+              ("bake", re.compile(r"^Baked ")),
+              ("export", re.compile(r"^wrote .*\.glb")))
 PARAGRAPH = ("Can you show me the way to the conference hall? The talking head speaks every line with "
              "lips, jaw and tongue moving together, and each sound borrows a little of its neighbours. "
              "Peter Piper picked a peck of pickled peppers, while the quick brown fox jumped over the "
@@ -71,9 +103,73 @@ def main() -> None:
     total_per_30s = (tracks_s + keyframes_s) * SECONDS / duration
     print(f"tracks + keyframes: {total_per_30s:.4f} s per 30 s of speech (goal < 1 s)")
 
-    print(f"RESULT tracks_s_per_30s={tracks_per_30s:.4f} keyframes_s_per_30s={keyframes_s * SECONDS / duration:.4f} "
+    keys = end_to_end(text)
+    print(f"RESULT {' '.join(keys)} tracks_s_per_30s={tracks_per_30s:.4f} "
+          f"keyframes_s_per_30s={keyframes_s * SECONDS / duration:.4f} "
           f"tracks_keys_s_per_30s={total_per_30s:.4f} align_rt={align_s / duration:.4f} "
           f"tts_rt={tts_s / duration:.4f}")
+
+
+def timed_command(arguments: list[str], env: dict) -> tuple[list[tuple[float, str]], float, float]:
+    """Run ``./fh arguments``; every output line with the seconds since the start, the wall total and the
+    CPU seconds (user + system) of the command's processes (wall >> CPU: the machine was shared)."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    started = time.perf_counter()
+    process = subprocess.Popen([str(ROOT / "fh"), *arguments], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                               text=True, bufsize=1, env={**os.environ, **env, "PYTHONUNBUFFERED": "1"})
+    lines = [(time.perf_counter() - started, line.rstrip("\n")) for line in process.stdout]
+    code = process.wait()
+    total = time.perf_counter() - started
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if code != 0:
+        sys.exit(f"./fh {arguments[0]} failed ({code}):\n" + "\n".join(line for _, line in lines[-20:]))
+    return lines, total, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+
+
+def stage_split(lines: list[tuple[float, str]], total: float) -> tuple[float, dict[str, float]]:
+    """(speech seconds, stage -> seconds) from the stamped lines (``STAGE_ENDS``)."""
+    speech = next(float(m.group(1)) for _, line in lines if (m := re.search(r"([0-9.]+) s of speech \(", line)))
+    stages, previous = {}, 0.0
+    for stage, pattern in STAGE_ENDS:
+        at = next(t for t, line in lines if pattern.search(line))
+        stages[stage], previous = at - previous, at
+    stages["exit"] = total - previous
+    return speech, stages
+
+
+def festival_recording(text: str, folder: Path) -> Path:
+    """``text`` read by Festival's SLT HTS voice as a 16 kHz WAV."""
+    from speech_fixtures import festival_labels, to_16k, write_wav  # scripts/, on the path via _harness
+    wav, _, _ = festival_labels(text, folder, "festival_30s")
+    out = folder / "recording.wav"
+    write_wav(out, to_16k(wav), 16000)
+    return out
+
+
+def end_to_end(text: str) -> list[str]:
+    """The two commands, timed by stage; returns RESULT keys."""
+    keys = []
+    # ./fh runs `make -s install` first: bring the install up to date untimed, so start-up is only the
+    # up-to-date check and not a rebuild
+    subprocess.run(["make", "-s", "-C", str(ROOT), "install"], check=True, capture_output=True)
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        recording = festival_recording(text, folder)
+        runs = [("speak_cold", ["speak", "--text", text, "--out", str(folder / "speak_cold.glb")],
+                 {"FH_NO_SHAPE_CACHE": "1"}),
+                ("speak", ["speak", "--text", text, "--out", str(folder / "speak.glb")], {}),
+                ("lipsync", ["lipsync", "--audio", str(recording), "--transcript", text,
+                             "--out", str(folder / "lipsync.glb")], {})]
+        for name, arguments, env in runs:
+            lines, total, cpu = timed_command(arguments, env)
+            speech, stages = stage_split(lines, total)
+            split = ", ".join(f"{stage} {sec:.2f} s ({sec / speech:.3f}x)" for stage, sec in stages.items())
+            print(f"./fh {arguments[0]}{' (shape cache off)' if env else ''}: {speech:.1f} s of speech in "
+                  f"{total:.1f} s = {total / speech:.3f}x real time (CPU {cpu:.1f} s); {split}")
+            keys += [f"{name}_total_rt={total / speech:.3f}", f"{name}_cpu_rt={cpu / speech:.3f}"]
+            keys += [f"{name}_{re.sub(r'[^a-z]+', '_', stage).strip('_')}_rt={sec / speech:.4f}"
+                     for stage, sec in stages.items()]
+    return keys
 
 
 def time_keyframes(utterance, fps: int) -> float:

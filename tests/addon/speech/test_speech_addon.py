@@ -99,8 +99,9 @@ def test_target_without_visemes_is_a_clear_error(bpy_clean):
 def test_lipsync_audio_file(bpy_clean, tmp_path):
     import soundfile
     bpy = bpy_clean
-    wav = next(DATA.glob("*.wav"))
-    transcript = wav.with_suffix(".txt").read_text().strip()
+    wav = DATA / "slt_ill_disposed.wav"                               # Festival speech (tests/data/speech)
+    transcript = next(line.split("\t")[1] for line in wav.with_suffix(".tsv").read_text().splitlines()
+                      if line.startswith("text\t"))
     obj = _viseme_mesh(bpy)
     with pytest.raises(RuntimeError, match="no speech take"):
         bpy.ops.faces_hands.export_mouth_cues(filepath=str(tmp_path / "none.json"))
