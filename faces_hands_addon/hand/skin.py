@@ -10,7 +10,9 @@ one closed-up surface the spring network can use.
    sheet (an unwelded seam would open under the springs). UVs are kept per face corner.
 3. *Refine*: the longest edges are split (:func:`..core.refine.split_long_edges`) until the network has about
    the thesis' 1500 nodes.
-4. *Clearance*: skin that lies closer to a bone than ``CLEARANCE`` is pushed out along its normal, so the
+4. *Shape*: fingers, thumb and thenar eminence are given rounded sections round their bones
+   (:mod:`.skin_shape`).
+5. *Clearance*: skin that lies closer to a bone than ``CLEARANCE`` is pushed out along its normal, so the
    bones stay inside the hand.
 
 The skinning weights (used to carry every skin node's attachment point with the bones) come from the asset
@@ -27,6 +29,7 @@ from .. import assets
 from ..core import geometry, refine
 from ..physics import RBFWarp
 from .skeleton import TIP_NAMES, Skeleton
+from .skin_shape import shape_skin
 
 __all__ = ["SkinMesh", "fit_reference_skin", "TARGET_NODES", "CLEARANCE"]
 
@@ -143,6 +146,7 @@ def fit_reference_skin(skeleton: Skeleton, target_nodes: int = TARGET_NODES) -> 
     vertices, weights, faces = vertices[kept], weights[kept], new_index[faces]
     vertices, faces, corner_uvs, weights = _refine(vertices, faces, corner_uvs, weights, target_nodes)
     weights /= weights.sum(axis=1, keepdims=True)
+    vertices = shape_skin(vertices, faces, weights, skeleton)
     vertices = _push_out_of_bones(vertices, faces, skeleton)
     boundary = np.zeros(len(vertices), bool)
     for loop in refine.boundary_loops(faces):
