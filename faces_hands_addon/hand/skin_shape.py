@@ -38,8 +38,8 @@ THUMB_SECTIONS = {
     "phalanx-proximal": ((11.0, 8.0, 10.5), (10.0, 7.0, 9.5)),
     "phalanx-distal": ((10.0, 7.0, 9.5), (9.0, 6.0, 8.5)),
 }
-FINGER_SCALE = {"index": 1.0, "middle": 1.03, "ring": 0.96, "pinky": 0.86}
-TIP_PAD = 0.003        # m of pulp past the tip of a distal bone
+FINGER_SCALE = {"index": 1.0, "middle": 1.03, "ring": 0.96, "pinky": 0.9}
+TIP_PAD = 0.002       # m of pulp past the tip of a distal bone
 WEB = (0.12, 0.45)     # fade-in of a proximal phalanx's target over this part of its length
 THUMB_BASE = (0.05, 0.35)   # the same for the thumb metacarpal (the carpus keeps its shape)
 SMOOTHING = 4          # umbrella iterations on the displacement field
