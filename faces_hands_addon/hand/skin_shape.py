@@ -21,11 +21,12 @@ from __future__ import annotations
 
 import numpy as np
 from scipy import sparse
+import scipy.sparse.linalg  # noqa: F401  (sparse.linalg)
 
 from ..core import geometry
 from .skeleton import Skeleton
 
-__all__ = ["SECTIONS", "FINGER_SCALE", "TIP_PAD", "WEB", "shape_skin", "section_radius"]
+__all__ = ["SECTIONS", "FINGER_SCALE", "TIP_PAD", "WEB", "shape_skin", "section_radius", "relax_folds", "smooth_field", "web_membrane", "fold_vertices"]
 
 #: bone-name suffix -> (a, dorsal, palmar) at the bone's head and at its tail, mm
 SECTIONS = {
@@ -86,7 +87,8 @@ def _target(vertices: np.ndarray, skeleton: Skeleton, b: int, sections, scale: f
     return centre + u * radius[:, None], fade
 
 
-def _smooth(field: np.ndarray, faces: np.ndarray, iterations: int) -> np.ndarray:
+def smooth_field(field: np.ndarray, faces: np.ndarray, iterations: int) -> np.ndarray:
+    """``field`` (N, K) on the mesh's vertices, averaged half-and-half with its neighbours ``iterations`` times."""
     edges = geometry.unique_edges(faces)
     n = len(field)
     adjacency = sparse.coo_matrix((np.ones(2 * len(edges)), (np.r_[edges[:, 0], edges[:, 1]],
@@ -114,5 +116,73 @@ def shape_skin(vertices: np.ndarray, faces: np.ndarray, weights: np.ndarray, ske
         pull += w[:, None] * target
         strength += w
     target = np.where(strength[:, None] > 1e-9, pull / np.maximum(strength, 1e-12)[:, None], vertices)
-    strength = _smooth(np.clip(strength, 0.0, 1.0)[:, None], faces, SMOOTHING)[:, 0]
+    strength = smooth_field(np.clip(strength, 0.0, 1.0)[:, None], faces, SMOOTHING)[:, 0]
     return vertices + strength[:, None] * (target - vertices)
+
+
+def fold_vertices(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Vertices on edges whose two faces meet at more than 90 degrees (a fold or a flap)."""
+    normals = geometry.face_normals(vertices, faces)
+    corners = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    owner = np.tile(np.arange(len(faces)), 3)
+    key = np.sort(corners, axis=1)
+    order = np.lexsort((key[:, 1], key[:, 0]))
+    key, owner = key[order], owner[order]
+    same = np.all(key[1:] == key[:-1], axis=1)
+    a, b = owner[:-1][same], owner[1:][same]
+    folded = np.einsum("ij,ij->i", normals[a], normals[b]) < 0.0
+    return np.unique(key[:-1][same][folded])
+
+
+def relax_folds(vertices: np.ndarray, faces: np.ndarray, movable: np.ndarray, rounds: int = 8, rings: int = 2,
+                iterations: int = 12) -> np.ndarray:
+    """Smooth the skin only round its folds (edges sharper than 90 degrees, left where the asset's web met
+    a finger's new section), ``rings`` edges wide, until none is left or ``rounds`` are done. Only ``movable``
+    nodes (N,) bool move: smoothing the folds of the asset's wrist rim would pinch the forearm."""
+    edges = geometry.unique_edges(faces)
+    n = len(vertices)
+    adjacency = sparse.coo_matrix((np.ones(2 * len(edges)), (np.r_[edges[:, 0], edges[:, 1]],
+                                                              np.r_[edges[:, 1], edges[:, 0]])), (n, n)).tocsr()
+    degree = np.maximum(np.asarray(adjacency.sum(axis=1)).ravel(), 1)
+    out = vertices.copy()
+    for _ in range(rounds):
+        sharp = fold_vertices(out, faces)
+        if len(sharp) == 0:
+            break
+        region = np.zeros(n, bool)
+        region[sharp] = True
+        for _ in range(rings):
+            region |= np.asarray(adjacency @ region.astype(float)).ravel() > 0
+        region &= movable
+        for _ in range(iterations):
+            mean = (adjacency @ out) / degree[:, None]
+            out[region] += 0.5 * (mean[region] - out[region])
+    return out
+
+
+def web_membrane(vertices: np.ndarray, faces: np.ndarray, weights: np.ndarray, skeleton: Skeleton,
+                 span: tuple[float, float] = (-0.05, 0.4)) -> np.ndarray:
+    """The finger bases as a membrane: the skin nodes of the four fingers' proximal phalanges from ``span[0]``
+    to ``span[1]`` of the bone's length (the web and the knuckles, where the asset's surface folds once its
+    fingers sit on the bones) are placed by the discrete Laplace equation, fixed by the palm round them and
+    the rounded finger beyond: a smooth sheet from palm to finger, the web between two fingers."""
+    owner = weights.argmax(axis=1)
+    free = np.zeros(len(vertices), bool)
+    for finger in ("index", "middle", "ring", "pinky"):
+        b = skeleton.index[f"{finger}-finger-phalanx-proximal"]
+        head, tail = skeleton.position[b], skeleton.tail[b]
+        s = (vertices - head) @ (tail - head) / float(np.dot(tail - head, tail - head))
+        free |= (owner == b) & (s > span[0]) & (s < span[1])
+    edges = geometry.unique_edges(faces)
+    n = len(vertices)
+    adjacency = sparse.coo_matrix((np.ones(2 * len(edges)), (np.r_[edges[:, 0], edges[:, 1]],
+                                                              np.r_[edges[:, 1], edges[:, 0]])), (n, n)).tocsr()
+    laplacian = sparse.diags(np.asarray(adjacency.sum(axis=1)).ravel()) - adjacency
+    idx, fixed = np.flatnonzero(free), np.flatnonzero(~free)
+    if len(idx) == 0:
+        return vertices
+    system = laplacian[idx][:, idx].tocsc()
+    rhs = -(laplacian[idx][:, fixed] @ vertices[fixed])
+    out = vertices.copy()
+    out[idx] = sparse.linalg.spsolve(system, rhs).reshape(len(idx), 3)
+    return out
