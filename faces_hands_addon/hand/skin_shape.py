@@ -12,10 +12,11 @@ head to its tail (values in :data:`SECTIONS`, millimetres, from adult hand anthr
 the joints about 15-22 mm, depths about 0.85 of the breadth; the thumb metacarpal's palmar half-depth is the
 thenar eminence). Distal bones end in a round cap ``TIP_PAD`` past the bone.
 
-A skin node moves towards each bone's target by its skinning weight on that bone, faded in over ``WEB``
-of a proximal phalanx's length from its base (the web between the fingers and the knuckles keep the asset's
-shape there); a node's blend of its targets is smoothed over the mesh, so no seam shows where a target
-fades out.
+A skin node moves towards the targets of its finger's bones by its skinning weights on them, faded in over
+``WEB`` of a proximal phalanx's length from its base; a node's blend of its targets is smoothed over the mesh,
+so no seam shows where a target fades out. The finger bases themselves (web and knuckles, where the asset
+folds once its fingers sit on the bones) become a Laplace membrane between palm and finger
+(:func:`web_membrane`), and what folds remain on the fingers is relaxed (:func:`relax_folds`).
 """
 from __future__ import annotations
 
@@ -26,7 +27,8 @@ import scipy.sparse.linalg  # noqa: F401  (sparse.linalg)
 from ..core import geometry
 from .skeleton import Skeleton
 
-__all__ = ["SECTIONS", "FINGER_SCALE", "TIP_PAD", "WEB", "shape_skin", "section_radius", "relax_folds", "smooth_field", "web_membrane", "fold_vertices"]
+__all__ = ["SECTIONS", "FINGER_SCALE", "TIP_PAD", "WEB", "shape_skin", "section_radius", "relax_folds",
+           "smooth_field", "web_membrane", "fold_vertices"]
 
 #: bone-name suffix -> (a, dorsal, palmar) at the bone's head and at its tail, mm
 SECTIONS = {
@@ -43,7 +45,7 @@ FINGER_SCALE = {"index": 1.0, "middle": 1.03, "ring": 0.96, "pinky": 0.9}
 TIP_PAD = 0.002       # m of pulp past the tip of a distal bone
 WEB = (0.12, 0.45)     # fade-in of a proximal phalanx's target over this part of its length
 THUMB_BASE = (0.05, 0.35)   # the same for the thumb metacarpal (the carpus keeps its shape)
-SMOOTHING = 4          # umbrella iterations on the displacement field
+SMOOTHING = 4          # umbrella iterations on the blend strength
 
 
 def _sections(name: str):
