@@ -32,7 +32,11 @@ from .presets import require_keys
 from .reference import PALM_NORMAL, RADIAL
 from .skeleton import Skeleton
 
-__all__ = ["GeometricMuscles", "muscle_grids", "build_geometric_muscles"]
+__all__ = ["GeometricMuscles", "muscle_grids", "build_geometric_muscles", "FOOTPRINT"]
+
+#: radius of a grid point's footprint on the skin, in grid spacings (wide enough that a bulge is a swelling
+#: of the eminence, Fig. 6.18, not a pimple over each grid point)
+FOOTPRINT = 2.4
 
 
 def _point_on_bone(skeleton: Skeleton, spec: list, where: str) -> np.ndarray:
@@ -162,7 +166,7 @@ class GeometricMuscles:
             rows, columns = grid.shape[:2]
             spacing = max(np.linalg.norm(np.diff(grid, axis=0), axis=2).mean(),
                           np.linalg.norm(np.diff(grid, axis=1), axis=2).mean())
-            radius = 1.6 * spacing
+            radius = FOOTPRINT * spacing
             index = np.flatnonzero(lay.muscle == m)
             d = np.linalg.norm(vertices[:, None, :] - grid_on_skin[index][None], axis=2)
             f = np.clip(1.0 - (d / radius) ** 2, 0.0, None) ** 2

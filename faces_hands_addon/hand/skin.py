@@ -10,7 +10,9 @@ one closed-up surface the spring network can use.
    sheet (an unwelded seam would open under the springs). UVs are kept per face corner.
 3. *Refine*: the longest edges are split (:func:`..core.refine.split_long_edges`) until the network has about
    the thesis' 1500 nodes.
-4. *Clearance*: skin that lies closer to a bone than ``CLEARANCE`` is pushed out along its normal, so the
+4. *Shape*: fingers, thumb and thenar eminence are given rounded sections round their bones
+   (:mod:`.skin_shape`); folds left where the asset's webs meet the new sections are smoothed away.
+5. *Clearance*: skin that lies closer to a bone than ``CLEARANCE`` is pushed out along its normal, so the
    bones stay inside the hand.
 
 The skinning weights (used to carry every skin node's attachment point with the bones) come from the asset
@@ -27,6 +29,7 @@ from .. import assets
 from ..core import geometry, refine
 from ..physics import RBFWarp
 from .skeleton import TIP_NAMES, Skeleton
+from .skin_shape import relax_folds, shape_skin, smooth_field, web_membrane
 
 __all__ = ["SkinMesh", "fit_reference_skin", "TARGET_NODES", "CLEARANCE"]
 
@@ -112,17 +115,29 @@ def _refine(vertices, faces, corner_uvs, weights, target_nodes: int):
     return matrix @ vertices, new_faces, uvs, np.asarray(matrix @ weights)
 
 
-def _push_out_of_bones(vertices: np.ndarray, faces: np.ndarray, skeleton: Skeleton) -> np.ndarray:
-    """Move skin vertices that lie within ``CLEARANCE`` of (or inside) a bone out along their normals."""
-    bone_points = np.concatenate([v[::3] for name, v in skeleton.mesh_vertices.items() if name != "forearm"])
+def _push_out_of_bones(vertices: np.ndarray, faces: np.ndarray, weights: np.ndarray,
+                       skeleton: Skeleton) -> np.ndarray:
+    """Move skin vertices that lie within ``CLEARANCE`` of (or inside) one of their own bones (skinning weight
+    over 2 %; a neighbouring finger's bone must not push a finger's side into it) out along their normals; the
+    push is smoothed over the neighbours, so a thin web is lifted, not folded."""
+    names = [n for n in skeleton.names if n != "forearm"]
+    trees = [cKDTree(skeleton.mesh_vertices[n][::3]) for n in names]
+    columns = [skeleton.index[n] for n in names]
+    own = weights[:, columns] > 0.02
     normals = geometry.vertex_normals(vertices, faces)
     out = vertices.copy()
-    for _ in range(3):
-        distance, nearest = cKDTree(bone_points).query(out)
-        height = np.einsum("ij,ij->i", out - bone_points[nearest], normals)
+    for _ in range(4):
+        distance = np.full(len(out), np.inf)
+        height = np.full(len(out), np.inf)
+        for k, tree in enumerate(trees):
+            d, i = tree.query(out)
+            closer = own[:, k] & (d < distance)
+            distance[closer] = d[closer]
+            h = np.einsum("ij,ij->i", out - tree.data[i], normals)
+            height[closer] = h[closer]
         short = np.maximum(CLEARANCE - np.minimum(height, distance), 0.0)
         short[distance > 0.012] = 0.0
-        out += normals * short[:, None]
+        out += smooth_field(normals * short[:, None], faces, 2) + normals * (0.25 * short)[:, None]
     return out
 
 
@@ -143,7 +158,9 @@ def fit_reference_skin(skeleton: Skeleton, target_nodes: int = TARGET_NODES) -> 
     vertices, weights, faces = vertices[kept], weights[kept], new_index[faces]
     vertices, faces, corner_uvs, weights = _refine(vertices, faces, corner_uvs, weights, target_nodes)
     weights /= weights.sum(axis=1, keepdims=True)
-    vertices = _push_out_of_bones(vertices, faces, skeleton)
+    vertices = web_membrane(shape_skin(vertices, faces, weights, skeleton), faces, weights, skeleton)
+    on_fingers = np.isin(weights.argmax(axis=1), [b for b, n in enumerate(skeleton.names) if "phalanx" in n])
+    vertices = _push_out_of_bones(relax_folds(vertices, faces, on_fingers), faces, weights, skeleton)
     boundary = np.zeros(len(vertices), bool)
     for loop in refine.boundary_loops(faces):
         boundary[loop] = True

@@ -90,6 +90,7 @@ class RenderHand:
         parser.add_argument("--view", choices=tuple(sheet.VIEWS), default="palm", help="camera (default palm)")
         parser.add_argument("--columns", type=int, default=4)
         parser.add_argument("--bones", action="store_true", help="render the bones instead of the skin")
+        parser.add_argument("--cell-size", default="240x300", help="pixels of one cell, WIDTHxHEIGHT (default 240x300)")
         parser.add_argument("--out", required=True, help="output .png")
 
     @staticmethod
@@ -97,13 +98,19 @@ class RenderHand:
         out = check_output_path(args.out, (".png",))
         if not 1 <= args.columns <= 20:
             raise UserError("--columns must be between 1 and 20")
+        try:
+            cell_size = tuple(int(v) for v in args.cell_size.lower().split("x"))
+        except ValueError:
+            cell_size = ()
+        if len(cell_size) != 2 or not all(64 <= v <= 4096 for v in cell_size):
+            raise UserError("--cell-size must be WIDTHxHEIGHT, each 64-4096 pixels (e.g. 720x900)")
         obj = services.hand_object(args.blend, args.rig, progress)
         names = [n.strip() for n in args.poses.split(",")] if args.poses else None
         rig = get_rig(obj, "hand")
         cells = sheet.bulge_cells(rig) if args.sheet == "bulges" else sheet.pose_cells(rig, names)
         with atomic_output(out) as tmp:
-            sheet.render_hand_sheet(bpy.context, obj, cells, tmp, args.view, args.columns, progress=progress,
-                                    show_bones=args.bones)
+            sheet.render_hand_sheet(bpy.context, obj, cells, tmp, args.view, args.columns, cell_size=cell_size,
+                                    progress=progress, show_bones=args.bones)
         print(written([out]))
         return 0
 

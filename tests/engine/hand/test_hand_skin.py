@@ -1,0 +1,100 @@
+"""The reference skin's shape (thesis 6.2.1, Fig. 6.13): round finger and thumb sections centred on their
+bones (the warped WebXR hand had a cone for a thumb and flat-sided ring finger bases), fingers that part when
+spread, and geometric muscles that swell the skin by millimetres (6.2.2, Fig. 6.18)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.spatial.distance import cdist
+
+from faces_hands_addon.core import geometry
+from faces_hands_addon.hand import motion
+from faces_hands_addon.hand.rig import build_hand_rig
+from faces_hands_addon.hand.skin_shape import fold_vertices
+
+
+@pytest.fixture(scope="module")
+def rig():
+    return build_hand_rig()
+
+
+def section_roundness(rig, bone: str, s: float) -> float:
+    """Smallest over largest distance from the bone axis of the skin's cut by the plane across the bone at
+    ``s`` of its length (only edges of that finger's skin, so the neighbours do not count)."""
+    sk, skin = rig.skeleton, rig.template.skin
+    b = sk.index[bone]
+    finger = bone.split("-")[0]
+    own = [i for i, n in enumerate(sk.names) if n.startswith(finger) and "metacarpal" not in n]
+    mask = np.isin(skin.weights.argmax(axis=1), own)
+    head, tail = sk.position[b], sk.tail[b]
+    z = (tail - head) / np.linalg.norm(tail - head)
+    centre = head + s * (tail - head)
+    edges = geometry.unique_edges(skin.faces)
+    h = (skin.vertices - centre) @ z
+    cut = (h[edges[:, 0]] * h[edges[:, 1]] < 0) & mask[edges[:, 0]] & mask[edges[:, 1]]
+    a, c = edges[cut, 0], edges[cut, 1]
+    t = h[a] / (h[a] - h[c])
+    points = skin.vertices[a] + t[:, None] * (skin.vertices[c] - skin.vertices[a])
+    r = np.linalg.norm(points - centre, axis=1)
+    assert len(r) >= 8
+    return float(r.min() / r.max())
+
+
+@pytest.mark.parametrize("bone, s, least", [
+    ("thumb-phalanx-proximal", 0.5, 0.55), ("thumb-phalanx-proximal", 0.7, 0.6),
+    ("thumb-phalanx-distal", 0.5, 0.6), ("thumb-phalanx-distal", 0.7, 0.6),
+    ("index-finger-phalanx-intermediate", 0.5, 0.65), ("middle-finger-phalanx-intermediate", 0.5, 0.65),
+    ("ring-finger-phalanx-intermediate", 0.5, 0.65), ("pinky-finger-phalanx-intermediate", 0.5, 0.65),
+    ("ring-finger-phalanx-proximal", 0.7, 0.5), ("ring-finger-phalanx-proximal", 0.5, 0.55), ("middle-finger-phalanx-proximal", 0.7, 0.6),
+])
+def test_finger_and_thumb_sections_are_round_round_their_bones(rig, bone, s, least):
+    # a round section has ratio 1; the target ellipse (thinner on the back than on the pad) about 0.73;
+    # the warped asset had 0.40-0.48 on the thumb (a cone off its bones), 0.27 at the ring finger's base
+    assert section_roundness(rig, bone, s) >= least
+
+
+def test_the_finger_bases_have_no_folds(rig):
+    # the warped asset, pushed off the neighbouring fingers' bones, had 29 finger nodes on edges folded past 90 degrees
+    # (the flaps at the ring and little finger bases); now its webs are a smooth membrane
+    skin, names = rig.template.skin, rig.skeleton.names
+    folded = fold_vertices(skin.vertices, skin.faces)
+    on_fingers = ["phalanx" in names[b] for b in skin.weights[folded].argmax(axis=1)]
+    assert sum(on_fingers) <= 8          # (the asset's own zigzag at the wrist rim is not counted)
+
+
+def test_the_skin_stays_outside_the_bones(rig):
+    sk, skin = rig.skeleton, rig.template.skin
+    for name in sk.names[1:]:
+        inside = geometry.winding_number(skin.vertices, skin.faces, sk.mesh_vertices[name][::7])
+        assert np.all(inside > 0.5), name
+
+
+def test_spread_parts_every_pair_of_neighbouring_fingers(rig):
+    rig.reset()
+    pose = rig.settled({"ctrl": motion.pose_contractions("spread", rig.muscle_names)}, 2.5)
+    rig.reset()
+    skin = pose.positions["skin"].astype(float)
+    owner = rig.template.skin.weights.argmax(axis=1)
+    sk = rig.skeleton
+    fingers = ("index", "middle", "ring", "pinky")
+    for a, b in zip(fingers[:-1], fingers[1:]):
+        tips_a = skin[owner == sk.index[f"{a}-finger-phalanx-distal"]]
+        tips_b = skin[owner == sk.index[f"{b}-finger-phalanx-distal"]]
+        assert cdist(tips_a, tips_b).min() > 0.010, (a, b)          # > 1 cm of air between the fingertips
+
+
+@pytest.mark.parametrize("muscle, least_mm", [
+    ("adductor_pollicis", 3.0), ("opponens_pollicis", 4.5), ("dorsal_interosseus_1", 4.0),
+    ("palmar_interosseus_1", 1.8), ("palmar_interosseus_2", 1.8), ("palmar_interosseus_3", 1.8),
+    ("opponens_digiti_minimi", 3.0), ("flexor_digiti_minimi_brevis", 3.5), ("abductor_digiti_minimi", 4.5),
+])
+def test_every_geometric_muscle_swells_the_skin_by_millimetres(rig, muscle, least_mm):
+    rig.reset()
+    zero = np.zeros(rig.skeleton.dof_count)
+    rest = rig.pose_joints(zero, 2.5).positions["skin"].astype(float)
+    rig.set_controls({muscle: 1.0})
+    bulged = rig.pose_joints(zero, 2.5).positions["skin"].astype(float)
+    rig.reset()
+    outward = np.einsum("ij,ij->i", bulged - rest, geometry.vertex_normals(rest, rig.template.skin.faces))
+    assert outward.max() * 1000 >= least_mm
+    assert (outward > 0.001).sum() >= 10                               # a swelling, not one raised node
