@@ -22,7 +22,7 @@ from ..core.controls import ControlSpec
 from ..core.errors import UserError
 from .events import CHANNEL_CONTROLS, COMBINE, BehaviorEvent, channel_specs, sample_envelope
 from .gaze import gaze_curves, jitter_events, lid_follow
-from .prosody import phone_boundaries, pitch_extrema
+from .prosody import phone_boundaries, utterance_extrema
 from .rules import (Context, accent_events, blink_events, pitch_events, question_events, regulator_events,
                     thinking_events)
 from .styles import CharacterStyle, load_style
@@ -61,8 +61,7 @@ def _context(utterance, style: CharacterStyle) -> Context:
 
 def _events(ctx: Context, seed: int) -> list[BehaviorEvent]:
     rngs = dict(zip(RULES, (np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(len(RULES)))))
-    pitch = ctx.utterance.pitch
-    extrema = pitch_extrema(pitch.times, pitch.f0_hz, ctx.style.pitch_threshold_st, pitch.hop)
+    extrema = utterance_extrema(ctx.utterance, ctx.style.pitch_threshold_st)
     thinking = thinking_events(ctx, rngs["thinking"])
     events = (blink_events(ctx, rngs["blinks"]) + pitch_events(ctx, extrema, rngs["pitch"])
               + accent_events(ctx, rngs["accents"]) + question_events(ctx) + thinking
