@@ -22,6 +22,7 @@ from ..core.controls import ControlSpec
 from ..core.errors import UserError
 from .events import CHANNEL_CONTROLS, COMBINE, BehaviorEvent, channel_specs, sample_envelope
 from .gaze import gaze_curves, jitter_events, lid_follow
+from .moisten import lick_events
 from .prosody import phone_boundaries, utterance_extrema
 from .rules import (Context, accent_events, blink_events, pitch_events, question_events, regulator_events,
                     thinking_events)
@@ -29,7 +30,7 @@ from .styles import CharacterStyle, load_style
 
 __all__ = ["BehaviorResult", "generate_behavior", "RULES"]
 
-RULES = ("blinks", "pitch", "accents", "thinking", "regulators", "jitter")
+RULES = ("blinks", "pitch", "accents", "thinking", "regulators", "jitter", "moisten")
 
 
 @dataclass
@@ -65,7 +66,8 @@ def _events(ctx: Context, seed: int) -> list[BehaviorEvent]:
     thinking = thinking_events(ctx, rngs["thinking"])
     events = (blink_events(ctx, rngs["blinks"]) + pitch_events(ctx, extrema, rngs["pitch"])
               + accent_events(ctx, rngs["accents"]) + question_events(ctx) + thinking
-              + regulator_events(ctx, rngs["regulators"], thinking) + jitter_events(ctx, rngs["jitter"]))
+              + regulator_events(ctx, rngs["regulators"], thinking) + jitter_events(ctx, rngs["jitter"])
+              + lick_events(ctx, rngs["moisten"], thinking))
     order = sorted(range(len(events)), key=lambda k: (events[k].start, events[k].kind, k))
     return [events[k] for k in order]
 
