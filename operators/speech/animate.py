@@ -48,8 +48,17 @@ def check_inputs(kind: str, source: str, text: str, path: str, style: str | None
     return style, parse_emotion(emotion_text)
 
 
+class _Cancelled(Exception):
+    """Raised in the worker at its next progress report once the job was cancelled."""
+
+
 class AnimateSpeechJob(Job):
-    """Three steps (the take, its behaviour and emotion, its loudness), then ``commit`` writes it."""
+    """Three steps (the take, its behaviour and emotion, its loudness), then ``commit`` writes it.
+
+    The take (synthesis or alignment, the slow part: about 80 s for 10 minutes of audio) runs in a worker
+    thread on engine data only, so the modal operator keeps Blender responsive, shows its progress and
+    Esc cancels at once: the worker stops at its next progress report and its result is dropped; nothing
+    is written before ``commit``."""
 
     label = "Animating speech"
 
@@ -59,17 +68,45 @@ class AnimateSpeechJob(Job):
         self.style, self.seed, self.emotion, self.loudness = style, seed, emotion, loudness
         self.audio_path, self.start_frame = audio_path, start_frame
         self.take, self.stage, self.curve = None, 0, None
+        self._thread, self._result, self._error, self._fraction, self._cancelled = None, None, None, 0.0, False
+
+    def _report(self, fraction: float, message: str = "") -> None:
+        if self._cancelled:
+            raise _Cancelled()
+        self._fraction = float(fraction)
+
+    def _work(self) -> None:
+        try:
+            self._result = self.make_take(self._report)
+        except BaseException as error:      # handed to the main thread by step()
+            self._error = error
+
+    def _take_step(self) -> float:
+        import threading
+        if self._thread is None:
+            self._thread = threading.Thread(target=self._work, name="fh-animate-speech", daemon=True)
+            self._thread.start()
+        self._thread.join(timeout=0.02)
+        if self._thread.is_alive():
+            return 0.6 * min(self._fraction, 0.99)
+        if self._error is not None:
+            raise self._error
+        self.take, self.stage = self._result, 1
+        return 0.6
 
     def step(self) -> float:
         from ...faces_hands_addon.speech.performance import with_loudness, with_nonverbal
         if self.stage == 0:
-            self.take = self.make_take()
-        elif self.stage == 1:
+            return self._take_step()
+        if self.stage == 1:
             self.take = with_nonverbal(self.take, style=self.style, seed=self.seed, emotion=self.emotion)
         elif self.stage == 2 and self.loudness:
             self.take, self.curve = with_loudness(self.take)
         self.stage += 1
-        return (0.6, 0.85, 1.0)[self.stage - 1]
+        return (0.85, 1.0)[self.stage - 2]
+
+    def cleanup(self) -> None:
+        self._cancelled = True
 
     def commit(self, context) -> str:
         obj = bpy.data.objects[self.obj_name]
@@ -133,13 +170,15 @@ class FH_OT_animate_speech(JobOperator, bpy.types.Operator):
                                       self.emotion or settings.speech_emotion)
         seed = int(settings.behavior_seed) if self.seed < 0 else int(self.seed)
         fps, voice = scene_fps(context.scene), settings.speech_voice or default_voice()
-        if self.source == "TEXT":
-            def make():
-                spoken = voice_settings(emotion, settings.speech_rate, settings.speech_pitch, settings.speech_volume)
-                return take_from_text(text, voice=voice, fps=fps, target=kind, **spoken)
+        if self.source == "TEXT":       # read every setting here: make() runs in a worker thread
+            spoken = voice_settings(emotion, settings.speech_rate, settings.speech_pitch, settings.speech_volume)
+
+            def make(progress):
+                return take_from_text(text, voice=voice, fps=fps, target=kind, progress=progress, **spoken)
         else:
-            def make():
-                return take_from_audio(path, transcript or None, fps=fps, target=kind, language=voice)
+            def make(progress):
+                return take_from_audio(path, transcript or None, fps=fps, target=kind, language=voice,
+                                       progress=progress)
         start = context.scene.frame_current if self.start_at_current else context.scene.frame_start
         return AnimateSpeechJob(obj.name, make, style, seed, emotion, self.loudness and self.source == "AUDIO",
                                 path or None, start)

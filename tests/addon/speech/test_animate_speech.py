@@ -154,13 +154,29 @@ def test_progress_in_steps_and_esc_cancels_with_nothing_written(bpy_clean):
     fake.make_job = lambda ctx: cls.make_job(fake, ctx)
     fake._finish_modal = lambda ctx: cls._finish_modal(fake, ctx)
     assert cls.invoke(fake, context, SimpleNamespace(type="NONE")) == {"RUNNING_MODAL"}
-    assert cls.modal(fake, context, SimpleNamespace(type="TIMER")) == {"RUNNING_MODAL"}
-    assert progress == [60]
+    # the take is made in a worker: the timer ticks return at once with the progress so far
+    ticks = 0
+    while not progress or progress[-1] < 60:
+        assert cls.modal(fake, context, SimpleNamespace(type="TIMER")) == {"RUNNING_MODAL"}
+        ticks += 1
+        assert ticks < 3000, progress[-5:]
+    assert all(p <= 60 for p in progress) and progress == sorted(progress)
     assert cls.modal(fake, context, SimpleNamespace(type="ESC")) == {"CANCELLED"}
     assert "cancelled" in reports[-1] and rig.animation_data is None
-    # run to the end: 60, 85, 100 then finished
+    # Esc while the worker is still busy: cancelled at once, its result dropped
+    assert cls.invoke(fake, context, SimpleNamespace(type="NONE")) == {"RUNNING_MODAL"}
+    assert cls.modal(fake, context, SimpleNamespace(type="TIMER")) == {"RUNNING_MODAL"}
+    job = fake._job
+    assert cls.modal(fake, context, SimpleNamespace(type="ESC")) == {"CANCELLED"}
+    job._thread.join(timeout=60)
+    assert rig.animation_data is None and job.take is None
+    # run to the end: the worker's progress up to 60, then 85, 100 and finished
     progress.clear()
     assert cls.invoke(fake, context, SimpleNamespace(type="NONE")) == {"RUNNING_MODAL"}
-    results = [cls.modal(fake, context, SimpleNamespace(type="TIMER")) for _ in range(3)]
-    assert results[-1] == {"FINISHED"} and progress == [60, 85, 100], (results, progress, reports)
+    result = {"RUNNING_MODAL"}
+    for _ in range(3000):
+        result = cls.modal(fake, context, SimpleNamespace(type="TIMER"))
+        if result != {"RUNNING_MODAL"}:
+            break
+    assert result == {"FINISHED"} and progress[-3:] == [60, 85, 100], (result, progress[-5:], reports)
     assert "Behavior" in reports[-1] and rig.animation_data is not None
