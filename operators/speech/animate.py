@@ -114,7 +114,11 @@ class AnimateSpeechJob(Job):
                                   audio_path=self.audio_path)
         layers = ["speech", *sorted(self.take.layers), *(["head"] if len(self.take.head) else [])]
         groups = ", ".join(apply.layer_group(layer) for layer in layers)
-        warnings = "".join(f"; warning: {w}" for w in self.take.utterance.warnings)
+        notes = list(self.take.utterance.warnings)
+        if not any(not p.is_pause for p in self.take.utterance.phones):
+            notes.append("no speech was found in the recording (noise?): the mouth stays still, only blinks "
+                         "and gaze are animated")
+        warnings = "".join(f"; warning: {w}" for w in notes)
         return f"{report}; layers {groups} (mute one: its channel group in the Dope Sheet){warnings}"
 
 
