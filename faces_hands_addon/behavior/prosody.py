@@ -130,20 +130,26 @@ def accent_extrema(times: np.ndarray, f0_hz: np.ndarray, accents: np.ndarray) ->
     targets; on its tracked contour the accents are sub-semitone bumps on a declination line and a
     phrase-initial rise, which the B-spline and the prominence threshold of :func:`pitch_extrema` remove,
     so from text only the phrase-initial peak survived (thesis example: a maximum on "show", none on
-    "conference"). Levels are the pitch relative to the utterance's range, as in :func:`pitch_extrema`;
-    an accent without voiced frames gives no maximum."""
+    "conference"). Levels are the pitch above the utterance's declination line (a straight line in
+    semitones), relative to the range of that excursion (10th percentile -> 0, the largest -> 1): the
+    head rises "proportionally to the pitch value" of the accent, not of the declining baseline. An
+    accent without voiced frames gives no maximum."""
     times = np.asarray(times, dtype=np.float64)
     f0 = np.asarray(f0_hz, dtype=np.float64)
     voiced = np.isfinite(f0) & (f0 > 0)
     t, hz = times[voiced], f0[voiced]
     if t.size < 6:
         return []
-    floor, top = float(np.percentile(hz, 10)), float(hz.max())
+    # levels above the declination line: the accent's own excursion, so a late accent of a long phrase
+    # rises as clearly as an early one (the line: least squares in semitones over the voiced frames)
+    st = _semitones(hz, float(np.median(hz)))
+    residual = st - np.polyval(np.polyfit(t, st, 1), t)
+    floor, top = float(np.percentile(residual, 10)), float(residual.max())
     span = max(top - floor, 1e-9)
 
     def make(index: int, kind: str) -> Extremum:
         return Extremum(float(t[index]), float(hz[index]), kind,
-                        float(np.clip((hz[index] - floor) / span, 0.0, 1.0)))
+                        float(np.clip((residual[index] - floor) / span, 0.0, 1.0)))
     peaks = []
     for start, end in np.asarray(accents, dtype=np.float64).reshape(-1, 2):
         inside = np.nonzero((t >= start) & (t <= end))[0]

@@ -32,7 +32,8 @@ def test_accent_bumps_on_a_declination_line_are_maxima():
     maxima = [e for e in extrema if e.kind == "max"]
     assert [round(e.time, 2) for e in maxima] == [0.4, 1.0, 2.0]
     assert [e.kind for e in extrema] == ["min", "max", "min", "max", "min", "max", "min"]
-    assert maxima[0].level > maxima[1].level > maxima[2].level    # proportional to the pitch
+    # proportional to the excursion above the declination line: the late bump rises as the early one
+    assert maxima[0].level > maxima[1].level > 0.2 and abs(maxima[2].level - maxima[1].level) < 0.15
     # an unvoiced accent gives no maximum
     hz[(times >= 1.9) & (times <= 2.1)] = np.nan
     assert len([e for e in accent_extrema(times, hz, accents) if e.kind == "max"]) == 2
@@ -55,5 +56,5 @@ def test_head_and_brows_rise_on_conference_in_the_thesis_example():
     r = generate_behavior(u, seed=0)
     mid = 0.5 * (conference.start + conference.end)
     peak = next(e for e in r.of_kind("head_raise") if conference.start <= e.params["peak"] <= conference.end)
-    assert r.tracks["head.pitch"].sample(peak.params["peak"]) > 0.2 * np.radians(3.0)
+    assert r.tracks["head.pitch"].sample(peak.params["peak"]) > 0.4 * np.radians(3.0)
     assert r.tracks["head.pitch"].sample(mid) > 0.0
