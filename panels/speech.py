@@ -40,6 +40,16 @@ class FH_PT_speech(SidebarPanel, bpy.types.Panel):
         box.prop(settings, "audio_path", text="")
         box.prop(settings, "audio_transcript", text="")
         box.operator("faces_hands.lipsync_audio", icon="SPEAKER")
+        box = layout.box()
+        box.label(text="Animate Speech: lip sync + behaviour + emotion, one layer each", icon="ANIM")
+        row = box.row(align=True)
+        row.operator("faces_hands.animate_speech", text="From Text", icon="TEXT").source = "TEXT"
+        row.operator("faces_hands.animate_speech", text="From Audio", icon="SOUND").source = "AUDIO"
+        if obj is not None and obj.get("fh_take_layers"):
+            row = box.row(align=True)
+            for layer in ["speech", *str(obj["fh_take_layers"]).split()]:
+                row.operator("faces_hands.mute_speech_layer", text=layer.capitalize(),
+                             icon="HIDE_OFF").layer = layer.capitalize()
         if obj is not None and obj.get("fh_mouth_cues"):
             layout.operator("faces_hands.export_mouth_cues", icon="EXPORT")
 

@@ -52,9 +52,12 @@ CHANNEL_CONTROLS: dict[str, tuple[tuple[str, float], ...]] = {
     "brow_R": (("frontalis_inner_R", 1.0), ("frontalis_outer_R", 1.0)),
     "frown": (("corrugator_supercilii_L", 1.0), ("corrugator_supercilii_R", 1.0), ("procerus", 0.6)),
     "lids": (("eyelid_close_L", 1.0), ("eyelid_close_R", 1.0)),
+    "lick_jaw": (("jaw_open", 1.0),),
+    "tongue_out": (("tongue_out", 1.0),),
+    "tongue_tip": (("tongue_tip_up", 1.0),),
 }
 COMBINE = {"head.pitch": "max", "head.yaw": "sum", "head.roll": "sum", "brow_L": "max", "brow_R": "max",
-           "frown": "max", "lids": "sum"}
+           "frown": "max", "lids": "sum", "lick_jaw": "max", "tongue_out": "max", "tongue_tip": "max"}
 GAZE_CONTROLS = ("eye_yaw", "eye_pitch")
 
 

@@ -22,14 +22,15 @@ from ..core.controls import ControlSpec
 from ..core.errors import UserError
 from .events import CHANNEL_CONTROLS, COMBINE, BehaviorEvent, channel_specs, sample_envelope
 from .gaze import gaze_curves, jitter_events, lid_follow
-from .prosody import phone_boundaries, pitch_extrema
+from .moisten import lick_events
+from .prosody import phone_boundaries, utterance_extrema
 from .rules import (Context, accent_events, blink_events, pitch_events, question_events, regulator_events,
                     thinking_events)
 from .styles import CharacterStyle, load_style
 
 __all__ = ["BehaviorResult", "generate_behavior", "RULES"]
 
-RULES = ("blinks", "pitch", "accents", "thinking", "regulators", "jitter")
+RULES = ("blinks", "pitch", "accents", "thinking", "regulators", "jitter", "moisten")
 
 
 @dataclass
@@ -61,12 +62,12 @@ def _context(utterance, style: CharacterStyle) -> Context:
 
 def _events(ctx: Context, seed: int) -> list[BehaviorEvent]:
     rngs = dict(zip(RULES, (np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(len(RULES)))))
-    pitch = ctx.utterance.pitch
-    extrema = pitch_extrema(pitch.times, pitch.f0_hz, ctx.style.pitch_threshold_st, pitch.hop)
+    extrema = utterance_extrema(ctx.utterance, ctx.style.pitch_threshold_st)
     thinking = thinking_events(ctx, rngs["thinking"])
     events = (blink_events(ctx, rngs["blinks"]) + pitch_events(ctx, extrema, rngs["pitch"])
               + accent_events(ctx, rngs["accents"]) + question_events(ctx) + thinking
-              + regulator_events(ctx, rngs["regulators"], thinking) + jitter_events(ctx, rngs["jitter"]))
+              + regulator_events(ctx, rngs["regulators"], thinking) + jitter_events(ctx, rngs["jitter"])
+              + lick_events(ctx, rngs["moisten"], thinking))
     order = sorted(range(len(events)), key=lambda k: (events[k].start, events[k].kind, k))
     return [events[k] for k in order]
 
@@ -81,17 +82,26 @@ def _grid(ctx: Context, events: list[BehaviorEvent], rate: float) -> np.ndarray:
 
 
 def _channels(events: list[BehaviorEvent], grid: np.ndarray) -> dict[str, np.ndarray]:
-    """Every abstract channel on ``grid``, overlapping events combined as :data:`.events.COMBINE` says."""
+    """Every abstract channel on ``grid``, overlapping events combined as :data:`.events.COMBINE` says
+    (``max``: the value of larger magnitude, ``sum``). Each event is read only over its own span (it is 0
+    outside), into running arrays: memory O(grid), not O(events x grid) (a 10-minute take has thousands)."""
     out = {}
     for channel, mode in COMBINE.items():
-        curves = [sample_envelope(grid, e.keys[channel]) for e in events if channel in e.keys]
-        if not curves:
-            out[channel] = np.zeros_like(grid)
-        elif mode == "max":
-            stack = np.stack(curves)
-            out[channel] = np.where(np.abs(stack.max(0)) >= np.abs(stack.min(0)), stack.max(0), stack.min(0))
-        else:
-            out[channel] = np.sum(curves, axis=0)
+        high, low, total = np.zeros_like(grid), np.zeros_like(grid), np.zeros_like(grid)
+        for e in events:
+            if channel not in e.keys:
+                continue
+            times = e.keys[channel][0]
+            a, b = np.searchsorted(grid, times[0], "left"), np.searchsorted(grid, times[-1], "right")
+            if a >= b:
+                continue
+            piece = sample_envelope(grid[a:b], e.keys[channel])
+            if mode == "max":
+                np.maximum(high[a:b], piece, out=high[a:b])
+                np.minimum(low[a:b], piece, out=low[a:b])
+            else:
+                total[a:b] += piece
+        out[channel] = np.where(np.abs(high) >= np.abs(low), high, low) if mode == "max" else total
     return out
 
 

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import splev, splrep
 
-__all__ = ["Extremum", "pitch_extrema", "phone_boundaries", "snap", "FILLER", "is_filler"]
+__all__ = ["Extremum", "pitch_extrema", "accent_extrema", "utterance_extrema", "phone_boundaries", "snap", "FILLER", "is_filler"]
 
 FILLER = re.compile(r"^(e+r+m*|e+h*m+|u+h+m*|u+m+|a+h+m*|ä+h*m*|ö+h*m*|h+m+|m{2,}|er+|erm+)$", re.IGNORECASE)
 _SPLINE_SIGMA_ST = 0.35     # expected scatter of the tracked F0 around its melody (semitones)
@@ -116,6 +116,68 @@ def pitch_extrema(times: np.ndarray, f0_hz: np.ndarray, threshold_st: float, hop
         time, index, kind = items[k]
         out.append(Extremum(time, float(hz[index]), kind, float(np.clip((hz[index] - floor) / span, 0.0, 1.0))))
     return out
+
+
+def accent_extrema(times: np.ndarray, f0_hz: np.ndarray, accents: np.ndarray) -> list[Extremum]:
+    """Pitch extrema of synthesised speech from its accents (4.3.5 "Expressions linked to intonation": from
+    text, head and brows follow "the intonation information provided by the TTS system"; 4.3.2: the
+    TTS places accents on content words, "leading to a pitch excursion").
+
+    A TTS contour is smooth and known to carry its accents where the TTS put them, so the accented
+    syllables (``accents``: (start, end) rows in time order) are its pitch targets: one maximum at the
+    highest F0 inside each accented syllable, one minimum at the lowest F0 between two neighbouring
+    maxima (and before the first and after the last, within 0.4 s). espeak-ng does not hand out its F0
+    targets; on its tracked contour the accents are sub-semitone bumps on a declination line and a
+    phrase-initial rise, which the B-spline and the prominence threshold of :func:`pitch_extrema` remove,
+    so from text only the phrase-initial peak survived (thesis example: a maximum on "show", none on
+    "conference"). Levels are the pitch above the utterance's declination line (a straight line in
+    semitones), relative to the range of that excursion (10th percentile -> 0, the largest -> 1): the
+    head rises "proportionally to the pitch value" of the accent, not of the declining baseline. An
+    accent without voiced frames gives no maximum."""
+    times = np.asarray(times, dtype=np.float64)
+    f0 = np.asarray(f0_hz, dtype=np.float64)
+    voiced = np.isfinite(f0) & (f0 > 0)
+    t, hz = times[voiced], f0[voiced]
+    if t.size < 6:
+        return []
+    # levels above the declination line: the accent's own excursion, so a late accent of a long phrase
+    # rises as clearly as an early one (the line: least squares in semitones over the voiced frames)
+    st = _semitones(hz, float(np.median(hz)))
+    residual = st - np.polyval(np.polyfit(t, st, 1), t)
+    floor, top = float(np.percentile(residual, 10)), float(residual.max())
+    span = max(top - floor, 1e-9)
+
+    def make(index: int, kind: str) -> Extremum:
+        return Extremum(float(t[index]), float(hz[index]), kind,
+                        float(np.clip((residual[index] - floor) / span, 0.0, 1.0)))
+    peaks = []
+    for start, end in np.asarray(accents, dtype=np.float64).reshape(-1, 2):
+        inside = np.nonzero((t >= start) & (t <= end))[0]
+        if inside.size and (not peaks or inside[np.argmax(hz[inside])] != peaks[-1]):
+            peaks.append(int(inside[np.argmax(hz[inside])]))
+    out: list[Extremum] = []
+    for k, peak in enumerate(peaks):
+        low_t = t[peaks[k - 1]] if k else t[peak] - 0.4
+        between = np.nonzero((t > low_t) & (t < t[peak]))[0]
+        if between.size:
+            out.append(make(int(between[np.argmin(hz[between])]), "min"))
+        out.append(make(peak, "max"))
+    if peaks:
+        after = np.nonzero((t > t[peaks[-1]]) & (t < t[peaks[-1]] + 0.4))[0]
+        if after.size:
+            out.append(make(int(after[np.argmin(hz[after])]), "min"))
+    return out
+
+
+def utterance_extrema(utterance, threshold_st: float) -> list[Extremum]:
+    """The pitch extrema the behaviour follows: from text (``source == "tts"``) at the TTS's accents
+    (:func:`accent_extrema`, 4.3.5), from recorded speech the prominent reconstructed extrema of the
+    tracked pitch (:func:`pitch_extrema`, 4.2.1)."""
+    pitch = utterance.pitch
+    accents = np.array([(s.start, s.end) for s in utterance.accented_syllables], dtype=np.float64)
+    if utterance.source == "tts" and accents.size:
+        return accent_extrema(pitch.times, pitch.f0_hz, accents)
+    return pitch_extrema(pitch.times, pitch.f0_hz, threshold_st, pitch.hop)
 
 
 def phone_boundaries(utterance) -> np.ndarray:

@@ -45,8 +45,11 @@ class Context:
         turns away from the listener during an accent (4.3.5: the speaker "does not shift its gaze further
         away"); the margin keeps a gaze change's ramp (``saccade_s``) out of the syllable too."""
         margin = self.style.saccade_s
-        for start, end in self.accents:     # in time order: a time pushed past one accent meets the next
-            if start - margin < time < end + margin:
+        first = int(np.searchsorted(self.accents[:, 1] + margin, time, side="right"))  # the earlier ones end before
+        for start, end in self.accents[first:]:  # in time order: a time pushed past one accent meets the next
+            if start - margin >= time:
+                break
+            if time < end + margin:
                 time = end + margin
         return float(time)
 

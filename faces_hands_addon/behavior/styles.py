@@ -73,6 +73,15 @@ class CharacterStyle:
     saccade_s: float = 0.05
     lid_follow: float = 0.2
     lid_head: float = 0.15
+    # lip moistening (4.2.1 "Punctuators and Manipulators"; no numbers in the thesis, see behavior/moisten.py)
+    lick_interval_s: float = 15.0
+    lick_jitter: float = 0.25
+    lick_min_pause_s: float = 0.3
+    lick_s: float = 0.35
+    lick_thinking_s: float = 0.8
+    lick_jaw: float = 0.12
+    lick_tongue: float = 0.4
+    lick_tip: float = 0.6
 
     @classmethod
     def from_values(cls, name: str, values: Mapping[str, float], base: "CharacterStyle | None" = None,
@@ -97,10 +106,10 @@ class CharacterStyle:
             if value < 0:
                 raise UserError(f"{source}: style {self.name!r}: {f.name} must not be negative, got {value}")
             if (f.name.endswith("probability") or f.name.startswith(("brow_", "question_brow", "thinking_b",
-                                                                     "thinking_f", "lid_"))) and value > 1:
+                                                                     "thinking_f", "lid_", "lick_jaw", "lick_tongue", "lick_tip", "lick_jitter"))) and value > 1:
                 raise UserError(f"{source}: style {self.name!r}: {f.name} must be at most 1, got {value}")
         for f in ("blink_interval_s", "blink_close_s", "blink_apex_s", "blink_open_s", "saccade_s",
-                  "gaze_jitter_min_s"):
+                  "gaze_jitter_min_s", "lick_s", "lick_thinking_s", "lick_interval_s"):
             if getattr(self, f) <= 0:
                 raise UserError(f"{source}: style {self.name!r}: {f} must be positive")
         if self.gaze_jitter_max_s < self.gaze_jitter_min_s:

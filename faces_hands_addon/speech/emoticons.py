@@ -11,6 +11,10 @@ Accepted spellings: the compact form (``:-)``), the spaced form the thesis print
 spaces or tabs around the nose), and the nose-less ``:)``, ``:(``, ``;)``. A mouth letter (``o``) must
 not be followed by a letter or digit, so ``:-on`` is not an emoticon.
 
+Emoticon-like tokens that are not in Table 4.1 (``:-P``, ``:D``, ``XD``, ``<3``, ``^_^``, ...) have no
+emotion in the thesis; :func:`blank_unknown_emoticons` blanks them too (espeak-ng would otherwise read
+``:-P`` as the letter "P") and names them, so the take says what it left out.
+
 Emoticons are *blanked* (replaced by spaces of the same length), not deleted, so character offsets in
 the cleaned text equal offsets in the original text and words on both sides stay separate.
 """
@@ -71,3 +75,22 @@ def extract_emoticons(text: str) -> tuple[str, list[EmotionTag]]:
         last = match.end()
     pieces.append(text[last:])
     return "".join(pieces), tags
+
+
+_UNKNOWN = re.compile(
+    r"(?<!\S)(?:>?[:;=][-^'o]?[()\[\]{}|/\\DPpSsOo0*@$&#Xx3<>]+|[xX][dD]+|<+/?3+|\^+_*\^+|[Tt]_+[Tt]"
+    r"|[oO]_+[oO]|-_+-)(?=[\s.,!?]|$)")
+
+
+def blank_unknown_emoticons(text: str) -> tuple[str, list[str]]:
+    """``text`` with every emoticon-like token that Table 4.1 does not list blanked to spaces (run it after
+    :func:`extract_emoticons`), and those tokens in text order."""
+    found = [m.group(0) for m in _UNKNOWN.finditer(text)]
+    return _UNKNOWN.sub(lambda m: " " * len(m.group(0)), text), found
+
+
+def unknown_emoticon_warning(tokens: list[str]) -> str:
+    """One line naming the emoticons that were left out and the ones that are known."""
+    known = " ".join(e for e, _ in TABLE_4_1)
+    return (f"not emoticons of Table 4.1, left out (not spoken, no emotion): {' '.join(dict.fromkeys(tokens))}; "
+            f"known: {known}")

@@ -21,7 +21,7 @@ from ..anim.tracks import Track, TrackSet
 from ..core.errors import UserError
 from .takes import SpeechTake
 
-__all__ = ["parse_emotion", "voice_settings", "with_nonverbal"]
+__all__ = ["parse_emotion", "voice_settings", "with_nonverbal", "with_loudness"]
 
 
 def parse_emotion(text: str | None):
@@ -98,3 +98,19 @@ def with_nonverbal(take: SpeechTake, *, style: str | None = "neutral", seed: int
         ranges.update({t.name: (model.specs[t.name].minimum, model.specs[t.name].maximum) for t in emotions})
         layers["emotion"] = emotions.clipped(ranges)
     return replace(take, layers=layers, ranges=ranges, head=head)
+
+
+def with_loudness(take: SpeechTake, settings=None) -> SpeechTake:
+    """``take`` with its mouth (the speech layer), its behaviour layer and its head motion scaled by the
+    relative loudness of its audio, each parameter by its own weight (4.2.1 "Volume-controlled
+    Intensity", :mod:`..behavior.loudness`; the emotion layer is left alone). Returns the take and the
+    curve as ``(take, loudness)``."""
+    from ..behavior.loudness import load_loudness_settings, loudness_curve, scale_tracks
+    settings = settings or load_loudness_settings()
+    curve = loudness_curve(take.utterance.samples, take.utterance.sample_rate, settings)
+    layers = dict(take.layers)
+    if "behavior" in layers:
+        layers["behavior"] = scale_tracks(layers["behavior"], curve, settings, take.ranges)
+    tracks = scale_tracks(take.tracks, curve, settings, take.ranges)
+    head = scale_tracks(take.head, curve, settings) if take.head is not None and len(take.head) else take.head
+    return replace(take, tracks=tracks, layers=layers, head=head), curve

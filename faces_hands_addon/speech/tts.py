@@ -29,7 +29,7 @@ import numpy as np
 
 from ..core.errors import UserError
 from . import espeak, words
-from .emoticons import extract_emoticons
+from .emoticons import blank_unknown_emoticons, extract_emoticons, unknown_emoticon_warning
 from .phonemes import SILENCE, from_espeak, from_ipa, split_stress
 from .pitch import track_pitch
 from .utterance import Phone, Utterance, WordDraft, assemble_utterance, token_spans
@@ -90,8 +90,9 @@ def synthesize(text: str, voice: str = "en-us", rate: float = 175, pitch: float 
     if not text.strip():
         raise UserError("the text is empty; type something to speak")
     cleaned, tags = extract_emoticons(text)
+    cleaned, unknown_emoticons = blank_unknown_emoticons(cleaned)
     if not any(ch.isalnum() for ch in cleaned):
-        if tags:
+        if tags or unknown_emoticons:
             raise UserError("the text has only emoticons and nothing to speak; add words around them")
         raise UserError("the text has nothing to speak (no letters or digits)")
     language = _language_of(voice)
@@ -106,7 +107,7 @@ def synthesize(text: str, voice: str = "en-us", rate: float = 175, pitch: float 
     sr = named.sample_rate
     total = len(named.samples)
     samples = named.samples.astype(np.float32) / 32768.0
-    warnings: list[str] = []
+    warnings: list[str] = [unknown_emoticon_warning(unknown_emoticons)] if unknown_emoticons else []
     if ipa_names is None:
         warnings.append("espeak-ng's IPA pass disagreed; phones were read from espeak names only")
 

@@ -78,9 +78,11 @@ def _label_object(collection, text: str, location, size: float, azimuth: float =
 
 def render_sheet(context, obj, cells: list[Cell], out_path, cell_size=(220, 250), columns: int = 8,
                  progress: Callable[[float, str], None] | None = None, settle_time: float = 1.2,
-                 view: str = "front") -> Path:
+                 view: str = "front", pose_cell: Callable[[object, dict], None] | None = None) -> Path:
     """Render one cell per (label, controls) and compose them row by row into ``out_path`` (PNG), seen
-    from ``view`` (a key of :data:`VIEWS`)."""
+    from ``view`` (a key of :data:`VIEWS`). Names with a dot (``head.pitch``) are not face controls: they
+    go to ``pose_cell(obj, controls)`` (which poses the object for the cell; called with ``{}`` at the
+    end to put it back)."""
     rig = get_rig(obj)
     scene = context.scene
     visible = [obj] + [p for role, p in parts(obj).items()
@@ -108,7 +110,10 @@ def render_sheet(context, obj, cells: list[Cell], out_path, cell_size=(220, 250)
         for index, (name, controls) in enumerate(cells):
             if progress:
                 progress(index / max(len(cells), 1), f"rendering {name}")
-            _show(obj, rig, rig.settled({BASE_LAYER: rig_controls(rig, controls)}, settle_time))
+            face = {k: v for k, v in controls.items() if "." not in k}
+            _show(obj, rig, rig.settled({BASE_LAYER: rig_controls(rig, face)}, settle_time))
+            if pose_cell is not None:
+                pose_cell(obj, controls)
             label.data.body = name
             tile = tmp_dir / f"cell_{index:04d}.png"
             render.render_objects(scene, visible + [label], tile, size=cell_size, reframe=False)
@@ -118,6 +123,8 @@ def render_sheet(context, obj, cells: list[Cell], out_path, cell_size=(220, 250)
         if progress:
             progress(1.0, f"contact sheet with {len(tiles)} cells")
     finally:
+        if pose_cell is not None:
+            pose_cell(obj, {})
         rig.reset()
         _show(obj, rig, rig.pose())
         curve = label.data

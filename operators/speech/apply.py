@@ -66,16 +66,27 @@ def target_kind(obj) -> str:
                     f"({', '.join(VISEMES[:3])}, ...); build a face rig or bake its visemes first")
 
 
-def _curves_for_take(obj, take, scene, start_frame):
-    """data path -> (frames, values) and the ID block the curves belong to."""
+def layer_group(layer: str) -> str:
+    """The F-curve group (Dope Sheet / Graph Editor channel group) of a take's layer: one group per layer
+    ("Speech", "Behavior", "Emotion", "Head"), so the artist mutes or tweaks a layer as a whole."""
+    return "Speech" if layer == "speech" else layer.capitalize()
+
+
+def _curves_for_take(obj, take, scene, start_frame, groups: dict | None = None):
+    """data path -> (frames, values) and the ID block the curves belong to; ``groups`` (if given) is
+    filled with data path -> the layer's group name (:func:`layer_group`)."""
     curves = {}
+    groups = {} if groups is None else groups
     if take.target == "muscles":
         owner = obj
         for layer, tracks in (("speech", take.tracks), *take.layers.items()):
             for track in tracks:
-                curves[controls.data_path(track.name, layer)] = (
-                    seconds_to_frames(track.times, scene, start_frame), track.values)
-        curves.update(head_motion.head_curves(obj, take.head, scene, start_frame))
+                path = controls.data_path(track.name, layer)
+                curves[path] = (seconds_to_frames(track.times, scene, start_frame), track.values)
+                groups[path] = layer_group(layer)
+        head = head_motion.head_curves(obj, take.head, scene, start_frame)
+        curves.update(head)
+        groups.update({key: layer_group("head") for key in head})
     else:
         owner = obj.data.shape_keys
         present = viseme_keys(obj)
@@ -170,7 +181,8 @@ def apply_take(scene, obj, take, *, start_frame: int | None = None, audio_path: 
     if kind != take.target:
         raise UserError(f"this take drives {take.target}, but '{obj.name}' needs {kind}")
     start = scene.frame_start if start_frame is None else int(start_frame)
-    owner, curves = _curves_for_take(obj, take, scene, start)
+    groups: dict = {}
+    owner, curves = _curves_for_take(obj, take, scene, start, groups)
     if not curves:
         raise UserError(f"nothing to animate on '{obj.name}'")
     if take.target == "muscles":
@@ -181,7 +193,9 @@ def apply_take(scene, obj, take, *, start_frame: int | None = None, audio_path: 
     owned = [*take.layers, *(["head"] if any(isinstance(k, tuple) for k in curves) else [])]
     _remove_previous_take(scene, obj, owner, take.target, owned)
     try:
-        fcurves.write_curves(owner, curves, action_name=f"{obj.name} Speech", group="Speech")
+        for group in dict.fromkeys(groups.get(key, "Speech") for key in curves):
+            fcurves.write_curves(owner, {k: v for k, v in curves.items() if groups.get(k, "Speech") == group},
+                                 action_name=f"{obj.name} Speech", group=group)
         if add_sound:
             _add_sound_strip(scene, obj, take, start, audio_path)
         obj[CUES_PROPERTY] = _cues_json(take)

@@ -45,6 +45,32 @@ def _own_rotation_scale(obj) -> np.ndarray:
     return np.array(rotation) @ np.diag(np.array(obj.scale))
 
 
+def _delta_location(obj, rx, ry, rz) -> np.ndarray:
+    """The delta location (one row per angle triple) that keeps the neck pivot in place."""
+    import mathutils
+    order = obj.rotation_mode if obj.rotation_mode in EULER_ORDERS else "XYZ"
+    turn = np.array([np.array(mathutils.Euler(angles, order).to_matrix()) for angles in zip(rx, ry, rz)])
+    pivot = _own_rotation_scale(obj) @ neck_pivot(obj)
+    return pivot[None, :] - turn @ pivot
+
+
+def pose_head(obj, controls: dict) -> None:
+    """Hold the head at one pose for a still (a contact-sheet cell): ``controls``' ``head.pitch/yaw/roll``
+    as the delta transform, with the take's head F-curves muted meanwhile; empty ``controls``: the curves
+    play again and the delta goes back to rest."""
+    from ..common.fcurves import existing_channelbag
+    if obj.rotation_mode not in EULER_ORDERS:
+        return
+    bag = existing_channelbag(obj)
+    for fcurve in (bag.fcurves if bag is not None else ()):
+        if fcurve.data_path in HEAD_PATHS:
+            fcurve.mute = bool(controls)
+    angles = [float(controls.get(name, 0.0)) for name in ("head.pitch", "head.roll", "head.yaw")]
+    rx, ry, rz = -angles[0], angles[1], angles[2]
+    obj.delta_rotation_euler = (rx, ry, rz)
+    obj.delta_location = tuple(_delta_location(obj, [rx], [ry], [rz])[0])
+
+
 def head_curves(obj, head, scene, start_frame: float) -> dict:
     """``(data_path, index) -> (frames, values)`` of the delta rotation and location that turn ``obj`` by
     the take's ``head`` tracks (``head.pitch`` + raises the chin, ``head.yaw`` + turns to the character's
@@ -59,11 +85,7 @@ def head_curves(obj, head, scene, start_frame: float) -> dict:
         return tracks[name].sample(times) if name in tracks else np.zeros_like(times)
     # facing -Y: chin up is a negative turn about X; left (+X) is positive about Z; top to +X is positive about Y
     rx, ry, rz = -angle("head.pitch"), angle("head.roll"), angle("head.yaw")
-    import mathutils
-    order = obj.rotation_mode if obj.rotation_mode in EULER_ORDERS else "XYZ"
-    turn = np.array([np.array(mathutils.Euler(angles, order).to_matrix()) for angles in zip(rx, ry, rz)])
-    pivot = _own_rotation_scale(obj) @ neck_pivot(obj)
-    delta_location = pivot[None, :] - turn @ pivot
+    delta_location = _delta_location(obj, rx, ry, rz)
     frames = seconds_to_frames(times, scene, start_frame)
     curves = {}
     for index, values in enumerate((rx, ry, rz)):

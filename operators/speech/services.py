@@ -19,7 +19,7 @@ from ..common.targets import write_live_link
 from ..common.timing import scene_fps, set_scene_fps
 from ..face import services as face, sheet
 from ..face.objects import EXPORT_ROLES
-from . import apply
+from . import apply, head as head_motion
 
 __all__ = ["run_line", "shared_default_rig", "phoneme_cells"]
 
@@ -73,7 +73,8 @@ def phoneme_cells(take, limit: int = 40) -> list:
         word = take.utterance.words[phone.word].text if phone.word is not None and phone.word >= 0 else ""
         cells.append((centre, f"/{phone.phone}/ {word}".strip()))
     cells += [(tag.time, f"{tag.emoticon} {tag.emotion}") for tag in take.utterance.emotions if tag.time is not None]
-    return [(label, _controls_at(take, time)) for time, label in sorted(cells)][:limit]
+    return [(label, {**_controls_at(take, time), **{t.name: float(t.sample(time)) for t in take.head}})
+            for time, label in sorted(cells)][:limit]
 
 
 def _write_outputs(rig_obj, take, out: Path, sheet_path: Path | None, progress, source_audio=None,
@@ -98,7 +99,7 @@ def _write_outputs(rig_obj, take, out: Path, sheet_path: Path | None, progress, 
     for path, sheet_view in ([(sheet_path, view)] if sheet_path is not None else []) + list(extra_sheets):
         with atomic_output(path) as tmp:
             sheet.render_sheet(bpy.context, rig_obj, phoneme_cells(take), tmp, columns=8, progress=progress,
-                               view=sheet_view)
+                               view=sheet_view, pose_cell=head_motion.pose_head)
         paths.append(Path(path))
     return paths
 
@@ -122,19 +123,21 @@ def run_line(spec: dict, rig_path, fps, progress) -> list[Path]:
     for path in spec["outputs"]:
         if path.exists():
             print(f"replacing {path}")
-    from ...faces_hands_addon.speech.performance import voice_settings, with_nonverbal
+    from ...faces_hands_addon.speech.performance import voice_settings, with_loudness, with_nonverbal
     emotion = spec.get("emotion")
     if spec.get("audio"):
         take = take_from_audio(spec["audio"], spec.get("transcript") or None, fps=fps, target="muscles",
                                language=spec.get("voice") or "en-us", progress=progress)
-        for warning in take.utterance.warnings:
-            print(f"warning: {warning}")
     else:
         voice = voice_settings(emotion, float(spec["rate"]))
         take = take_from_text(spec["text"], voice=spec.get("voice") or "en-us", fps=fps, target="muscles",
                               progress=progress, **voice)
+    for warning in take.utterance.warnings:
+        print(f"warning: {warning}")
     if spec.get("style") or emotion is not None or take.utterance.emotions:
         take = with_nonverbal(take, style=spec.get("style"), seed=int(spec.get("seed") or 0), emotion=emotion)
+    if spec.get("audio"):      # recorded speech: mouth, brows and head scaled by its loudness (4.2.1)
+        take, _ = with_loudness(take)
     rig_obj = _prepare_rig(rig_path, fps, progress)
     _bake_take(rig_obj, take, progress, spec["animation"])
     return _write_outputs(rig_obj, take, out, sheet_path, progress, spec.get("audio"), spec["view"],

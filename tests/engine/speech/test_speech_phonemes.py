@@ -92,3 +92,14 @@ def test_text_that_only_looks_like_emoticons_is_kept():
     for text in ["Sie wußtens selber nicht, -", "ratio 3:-2", "turn :-on now", "see (a):(b) ok"]:
         cleaned, tags = extract_emoticons(text)
         assert tags == [] and cleaned == text
+
+
+def test_unknown_emoticons_are_blanked_and_named():
+    from faces_hands_addon.speech.emoticons import blank_unknown_emoticons, extract_emoticons
+    text = "Hi! :-P Can you XD see <3 the hall? :-D ;-) items 1) and 8) stay, so do :-o and x-ray."
+    cleaned, tags = extract_emoticons(text)
+    cleaned, unknown = blank_unknown_emoticons(cleaned)
+    assert unknown == [":-P", "XD", "<3", ":-D"]
+    assert [t.emoticon for t in tags] == [";-)", ":-o"]
+    assert len(cleaned) == len(text) and "1) and 8) stay" in cleaned and "x-ray" in cleaned
+    assert "P" not in cleaned.split() and "XD" not in cleaned
