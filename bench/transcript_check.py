@@ -184,6 +184,8 @@ def evaluate(sentences, folder: Path, fits: list):
                 longest = max((p.duration for p in phones if not p.is_pause), default=0.0)
                 phone_counts.append((sum(not p.is_pause for p in phones), reference_phones, longest,
                                      result["refused"]))
+                if result["refused"]:
+                    print(f"  no transcript, {item}: refused: {result['warnings'][0]}")
     for seed in range(2):
         for name, samples in non_speech(seed).items():
             for transcript in (sentences[seed], None):
@@ -228,6 +230,9 @@ def main() -> None:
                 row["condition"].startswith(("wrong", "silence")) and not row["refused"]:
             print(f"  FAIL {row['condition']} {row['item']}: {row['warnings']}")
         del good
+    correct = [r for r in fits if r["condition"].startswith("correct") and not r["refused"]]
+    alarms = [r for r in correct if any("do not match" in w or "not in the transcript" in w for w in r["warnings"])]
+    print(f"  false alarms: {len(alarms)}/{len(correct)} accepted correct transcripts got a word warning")
     recognised = [(n, ref, longest) for n, ref, longest, refused in phone_counts if not refused]
     print(f"  no transcript: {len(recognised)}/{len(phone_counts)} recognised; phones/reference median "
           f"{np.median([n / ref for n, ref, _ in recognised]):.2f}, longest phone "

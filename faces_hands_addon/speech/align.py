@@ -101,15 +101,15 @@ def align_audio(audio, transcript: str | None = None, *, sample_rate: int | None
     return _force_align(ps, pcm, samples, rate, duration, pitch, text, cleaned, tags, language)
 
 
-def _free_phones(ps, pcm: bytes) -> list[tuple[str, int, int, float]]:
+def _free_phones(ps, pcm: bytes, **options) -> list[tuple[str, int, int, float]]:
     """Free phone recognition (allphone, the bundled en-us phone model): ``(phone, start, end, score)``."""
-    decoder = transcript_check.free_phone_decoder(ps)
+    decoder = transcript_check.free_phone_decoder(ps, **options)
     _decode(decoder, pcm)
     return transcript_check.segments(decoder)
 
 
 def _recognise_phones(ps, pcm, samples, rate, duration, pitch, text, tags, language) -> Utterance:
-    free = _free_phones(ps, pcm)
+    free = _free_phones(ps, pcm, lw=transcript_check.RECOGNITION_LW)
     transcript_check.check_recognised(free, pcm)
     phones, _ = _tile([(name, a * FRAME, (b + 1) * FRAME, 0, -1) for name, a, b, _ in free], duration)
     warnings = ["no transcript: phones were recognised without words, which is less accurate; "
