@@ -12,12 +12,15 @@ silences), then phone by phone (second pass, ``set_alignment``), exactly as its 
   model stays English, which the warnings say).
 * Lexical stress (for accented syllables) comes from espeak-ng's pronunciation of each word when its
   vowels match the aligned ones, else the longest vowel of a content word carries the accent.
-* Without a transcript, phones are recognised with pocketsphinx's phone loop (``allphone``) and the
-  result has no words; a warning says that this is less accurate.
-* Corrupt, zero-length or too short audio raise :class:`UserError`, and so does a transcript that
-  does not match the audio: either no alignment path reaches the end of the audio, or (when the
-  search needed wider beams, as synthetic voices do) the forced path scores far below a free phone
-  loop on the same audio. A transcript with a word or two wrong still aligns (the rest is right).
+* Without a transcript, phones are recognised with pocketsphinx's phone loop (``allphone``, the
+  bundled en-us phone model, phone-LM weight ``transcript_check.RECOGNITION_LW``) and the result has
+  no words; a warning says that this is less accurate. Recognition that leaves most of the speech to
+  silence or would hold one phone for long is refused (``transcript_check.check_recognised``).
+* Corrupt, zero-length, too short, silent or non-speech audio (a flat level:
+  ``transcript_check.refuse_non_speech``) raise :class:`UserError`. The transcript is checked word
+  by word against free phone recognition over the same frames (``transcript_check``): an unrelated
+  transcript is refused, words that do not match and speech the transcript lacks are named in
+  ``Utterance.warnings``.
 """
 from __future__ import annotations
 

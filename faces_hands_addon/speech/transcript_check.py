@@ -21,7 +21,8 @@ transcript it is aligned to. Three checks, all on pocketsphinx's own scores over
 Missing and extra words: a word the speaker did not say is squeezed into a few frames and scores
 badly (named as not matching); speech the transcript lacks is either given to an optional silence
 or filler between two words (a stretch of at least ``GAP_FRAMES`` loud frames: "speech not in the
-transcript between 'a' and 'b'") or absorbed by a neighbouring word, which then does not match.
+transcript between 'a' and 'b'") or absorbed by a neighbouring word, which then does not match or
+lasts far longer per phone than the other words (``LONG_WORD_RATIO``).
 
 Calibration (``bench/transcript_check.py --calibrate``): the thresholds were chosen on a
 calibration set of sentences spoken by Festival's CMU ARCTIC SLT HTS voice and by espeak-ng voices,
@@ -47,6 +48,10 @@ WORD_LIMIT = -60.0
 WORD_MARGIN = 10.0
 #: words shorter than this (frames) are never named: a short function word's score is too noisy
 NAME_MIN_FRAMES = 15
+#: a word this many times longer per phone than the utterance's median word (and at least
+#: LONG_MIN_FRAMES long) has absorbed speech the transcript lacks
+LONG_WORD_RATIO = 2.0
+LONG_MIN_FRAMES = 20
 #: the transcript is refused when FIT_SCORE = mean confidence - UNCOVERED_WEIGHT * uncovered share
 #: - BAD_WEIGHT * share of words below WORD_LIMIT falls below FIT_LIMIT
 FIT_LIMIT = -63.0
@@ -77,6 +82,7 @@ class WordFit:
     start: int
     end: int
     confidence: float
+    phones: int = 1
 
 
 @dataclass
@@ -177,7 +183,9 @@ def measure(forced_decoder, free_segments, pcm: bytes, texts: list[str]) -> Tran
         if token >= len(texts):
             break
         confidence = (score - _span_score(free_segments, a, b)) / (b - a + 1)
-        words.append(WordFit(token, texts[token], a, b, confidence))
+        pronunciation = forced_decoder.lookup_word(name)
+        phones = len(pronunciation.split()) if pronunciation else 1
+        words.append(WordFit(token, texts[token], a, b, confidence, phones))
     share = float((loud & uncovered).sum() / max(loud.sum(), 1))
     return TranscriptFit(words, gaps, share, level_spread(pcm), list(texts))
 
@@ -226,7 +234,13 @@ def judge(fit: TranscriptFit) -> list[str]:
     if score < FIT_LIMIT or low > MAX_BAD_SHARE:
         raise UserError(f"the transcript does not match the audio (fit {score:.0f} against free phone "
                         f"recognition, limit {FIT_LIMIT:.0f}; {low:.0%} of the words fit badly); {advice}")
+    per_phone = np.array([(w.end - w.start + 1) / max(w.phones, 1) for w in fit.words])
+    long = [w for w, q in zip(fit.words, per_phone) if q > LONG_WORD_RATIO * np.median(per_phone)
+            and w.end - w.start + 1 >= LONG_MIN_FRAMES and w not in bad]
     warnings = []
+    if long:
+        warnings.append("these words last far longer than their sounds need (a word missing next to "
+                        f"them?): {_quoted(w.text for w in long)}")
     if bad:
         warnings.append("these words do not match the audio (not spoken, misspelt, or a word is missing "
                         f"next to them): {_quoted(w.text for w in bad)}")
