@@ -225,11 +225,9 @@ def main() -> None:
     for condition, values in ok.items():
         print(f"  {condition:16s} {sum(values):3d}/{len(values):3d} = {pct(values):5.1f} %")
     for row in fits:
-        good = ok[row["condition"]]
         if row["condition"].startswith("correct") and row["refused"] or \
                 row["condition"].startswith(("wrong", "silence")) and not row["refused"]:
             print(f"  FAIL {row['condition']} {row['item']}: {row['warnings']}")
-        del good
     correct = [r for r in fits if r["condition"].startswith("correct") and not r["refused"]]
     alarms = [r for r in correct if any("do not match" in w or "not in the transcript" in w for w in r["warnings"])]
     print(f"  false alarms: {len(alarms)}/{len(correct)} accepted correct transcripts got a word warning")
@@ -239,6 +237,7 @@ def main() -> None:
           f"{max(longest for _, _, longest in recognised):.2f} s")
     print(f"  alignment time per call: median {np.median(times):.2f} s, max {max(times):.2f} s; "
           f"total {time.perf_counter() - started:.0f} s")
+    # missing_words_named_pct: left-out words (named by their place) and added words (by name) together
     missing = ok["missing_clean"] + ok["missing_10dB"] + ok["extra_clean"] + ok["extra_10dB"]
     print(f"RESULT wrong_refused_pct={pct(ok['wrong_clean'] + ok['wrong_10dB']):.1f} "
           f"silence_refused_pct={pct(ok['silence']):.1f} correct_10db_accepted_pct={pct(ok['correct_10dB']):.1f} "
