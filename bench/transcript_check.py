@@ -220,7 +220,9 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         ok, times, phone_counts = evaluate(sentences, Path(tmp), fits)
     if calibrate:
-        Path("transcript_check_calibration.json").write_text(json.dumps(fits, indent=1, default=str))
+        dump = Path(tempfile.gettempdir()) / "transcript_check_calibration.json"
+        dump.write_text(json.dumps(fits, indent=1, default=str))
+        print(f"raw scores written to {dump}")
     print(f"{'calibration' if calibrate else 'held-out'} set: {len(sentences)} sentences x 2 voices")
     for condition, values in ok.items():
         print(f"  {condition:16s} {sum(values):3d}/{len(values):3d} = {pct(values):5.1f} %")
