@@ -12,12 +12,15 @@ silences), then phone by phone (second pass, ``set_alignment``), exactly as its 
   model stays English, which the warnings say).
 * Lexical stress (for accented syllables) comes from espeak-ng's pronunciation of each word when its
   vowels match the aligned ones, else the longest vowel of a content word carries the accent.
-* Without a transcript, phones are recognised with pocketsphinx's phone loop (``allphone``) and the
-  result has no words; a warning says that this is less accurate.
-* Corrupt, zero-length or too short audio raise :class:`UserError`, and so does a transcript that
-  does not match the audio: either no alignment path reaches the end of the audio, or (when the
-  search needed wider beams, as synthetic voices do) the forced path scores far below a free phone
-  loop on the same audio. A transcript with a word or two wrong still aligns (the rest is right).
+* Without a transcript, phones are recognised with pocketsphinx's phone loop (``allphone``, the
+  bundled en-us phone model, phone-LM weight ``transcript_check.RECOGNITION_LW``) and the result has
+  no words; a warning says that this is less accurate. Recognition that leaves most of the speech to
+  silence or would hold one phone for long is refused (``transcript_check.check_recognised``).
+* Corrupt, zero-length, too short, silent or non-speech audio (a flat level:
+  ``transcript_check.refuse_non_speech``) raise :class:`UserError`. The transcript is checked word
+  by word against free phone recognition over the same frames (``transcript_check``): an unrelated
+  transcript is refused, words that do not match and speech the transcript lacks are named in
+  ``Utterance.warnings``.
 """
 from __future__ import annotations
 
@@ -30,6 +33,7 @@ from ..core.errors import UserError
 from .audio import as_mono, load_audio, to_analysis_rate, to_int16
 from .emoticons import extract_emoticons
 from .phonemes import SILENCE, from_arpabet, is_vowel, to_arpabet
+from . import transcript_check
 from .pitch import track_pitch
 from .utterance import Phone, Utterance, WordDraft, assemble_utterance, token_spans
 
@@ -89,6 +93,7 @@ def align_audio(audio, transcript: str | None = None, *, sample_rate: int | None
         level = f"{20 * np.log10(peak):.0f} dBFS" if peak > 0 else "digital silence"
         raise UserError(f"the recording is silent (peak {level}): there is no speech to lip-sync")
     pcm = to_int16(to_analysis_rate(samples, rate)).tobytes()
+    transcript_check.refuse_non_speech(pcm)
     duration = len(samples) / rate
     pitch = track_pitch(samples, rate)
     ps = _pocketsphinx()
@@ -99,12 +104,17 @@ def align_audio(audio, transcript: str | None = None, *, sample_rate: int | None
     return _force_align(ps, pcm, samples, rate, duration, pitch, text, cleaned, tags, language)
 
 
-def _recognise_phones(ps, pcm, samples, rate, duration, pitch, text, tags, language) -> Utterance:
-    decoder = ps.Decoder(allphone=ps.get_model_path("en-us/en-us-phone.lm.bin"), lm=None,
-                         backtrace=False, beam=1e-20, pbeam=1e-20, loglevel="FATAL")
+def _free_phones(ps, pcm: bytes, **options) -> list[tuple[str, int, int, float]]:
+    """Free phone recognition (allphone, the bundled en-us phone model): ``(phone, start, end, score)``."""
+    decoder = transcript_check.free_phone_decoder(ps, **options)
     _decode(decoder, pcm)
-    raw = [(seg.word, seg.start_frame * FRAME, (seg.end_frame + 1) * FRAME) for seg in decoder.seg()]
-    phones, _ = _tile([(name, a, b, 0, -1) for name, a, b in raw], duration)
+    return transcript_check.segments(decoder)
+
+
+def _recognise_phones(ps, pcm, samples, rate, duration, pitch, text, tags, language) -> Utterance:
+    free = _free_phones(ps, pcm, lw=transcript_check.RECOGNITION_LW)
+    transcript_check.check_recognised(free, pcm)
+    phones, _ = _tile([(name, a * FRAME, (b + 1) * FRAME, 0, -1) for name, a, b, _ in free], duration)
     warnings = ["no transcript: phones were recognised without words, which is less accurate; "
                 "give the transcript for better lip sync"]
     return assemble_utterance(text=text, language=language, samples=samples, sample_rate=rate,
@@ -156,60 +166,15 @@ def _tile(entries, duration: float) -> tuple[list[Phone], list[int]]:
 _BEAMS = ({}, {"beam": 1e-80, "wbeam": 1e-60, "pbeam": 1e-80}, {"beam": 1e-300, "wbeam": 1e-300, "pbeam": 1e-300})
 
 
-MISMATCH_LIMIT = -45.0      # per-frame log score below a free phone loop that means "wrong words"
-UNCOVERED_LIMIT = 0.3       # share of loud frames the alignment may leave to silence/fillers
-
-
-def _loud_frames(pcm: bytes, frames: int) -> np.ndarray:
-    """Per 10 ms frame: is it within 25 dB of the loudest frames (speech rather than a pause)?"""
-    x = np.frombuffer(pcm, dtype=np.int16).astype(np.float64)
-    hop = 160
-    n = min(frames, len(x) // hop)
-    energy = (x[:n * hop].reshape(n, hop) ** 2).mean(axis=1) + 1e-3
-    level = 10 * np.log10(energy)
-    loud = level > np.percentile(level, 95) - 25.0
-    return np.concatenate([loud, np.zeros(max(frames - n, 0), dtype=bool)])
-
-
-def _fits_like_speech(ps, decoder, pcm: bytes) -> tuple[bool, str]:
-    """Is a forced alignment plausible? Two checks against "wrong words":
-
-    * coverage -- the words must cover the loud (speech) frames; a short wrong transcript is
-      forced through by giving most of the speech to optional silences and fillers;
-    * fit -- the acoustic score per frame must be within ``MISMATCH_LIMIT`` of a free phone loop on
-      the same audio (LibriVox clips: right transcript -11..-15, one wrong word -16..-25, unrelated
-      text -53..-75; espeak-ng voices with the right text -6..-36)."""
-    logmath = decoder.get_logmath()
-    frames = max(decoder.n_frames(), 1)
-    loud = _loud_frames(pcm, frames)
-    uncovered = np.zeros(frames, dtype=bool)
-    forced = 0.0
-    for seg in decoder.seg():
-        forced += logmath.log(max(seg.ascore, 1e-300))
-        name = seg.word.split("(")[0]
-        if name.startswith(("<", "[", "+")):
-            uncovered[max(seg.start_frame, 0):seg.end_frame + 1] = True
-    share = (loud & uncovered).sum() / max(loud.sum(), 1)
-    if share > UNCOVERED_LIMIT:
-        return False, f"{share:.0%} of the speech is not covered by the transcript's words"
-    loop = ps.Decoder(allphone=ps.get_model_path("en-us/en-us-phone.lm.bin"), lm=None,
-                      backtrace=False, beam=1e-20, pbeam=1e-20, loglevel="FATAL")
-    _decode(loop, pcm)
-    free = sum(logmath.log(max(seg.ascore, 1e-300)) for seg in loop.seg())
-    if (forced - free) / frames < MISMATCH_LIMIT:
-        return False, "the words fit the sounds far worse than free phone recognition does"
-    return True, ""
-
-
 def _decoder_with_words(ps, beams: dict, words: list[tuple[str, str]]):
-    decoder = ps.Decoder(lm=None, bestpath=False, loglevel="FATAL", **beams)
+    decoder = ps.Decoder(lm=None, bestpath=False, loglevel="FATAL", compallsen=True, **beams)
     for word, phones in words:
         decoder.add_word(word, phones, True)
     return decoder
 
 
 def _force_align(ps, pcm, samples, rate, duration, pitch, text, cleaned, tags, language) -> Utterance:
-    decoder = ps.Decoder(lm=None, bestpath=False, loglevel="FATAL")
+    decoder = ps.Decoder(lm=None, bestpath=False, loglevel="FATAL", compallsen=True)
     english = language.lower().startswith("en")
     voice = language if language else "en-us"
     warnings: list[str] = []
@@ -237,7 +202,8 @@ def _force_align(ps, pcm, samples, rate, duration, pitch, text, cleaned, tags, l
     if added and english:
         warnings.append("not in the dictionary, pronounced by espeak-ng: " + ", ".join(added))
 
-    reason = "no alignment reaches the end of the audio"
+    texts = [cleaned[a:b] for a, b in spans]
+    free = None
     for beams in _BEAMS:
         if beams:
             decoder = _decoder_with_words(ps, beams, decoder_words)
@@ -247,14 +213,13 @@ def _force_align(ps, pcm, samples, rate, duration, pitch, text, cleaned, tags, l
             raise UserError(f"pocketsphinx cannot align this transcript ({exc})") from None
         _decode(decoder, pcm)
         if decoder.hyp() is not None:
-            fits, reason = _fits_like_speech(ps, decoder, pcm)
-            if fits:
-                break
-            raise UserError(f"the transcript does not match the audio ({reason}); check the words, "
-                            "or leave the transcript empty for phone recognition")
+            if free is None:
+                free = _free_phones(ps, pcm)
+            warnings.extend(transcript_check.judge(transcript_check.measure(decoder, free, pcm, texts)))
+            break
     else:
-        raise UserError(f"the transcript does not match the audio ({reason}); check the words, "
-                        "or leave the transcript empty for phone recognition")
+        raise UserError("the transcript does not match the audio (no alignment reaches the end of the "
+                        "audio); check the words, or leave the transcript empty for phone recognition")
     decoder.set_alignment()
     _decode(decoder, pcm)
     alignment = decoder.get_alignment()

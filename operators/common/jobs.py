@@ -14,6 +14,8 @@ class Job:
     (writes Blender data, returns a report string) and, where needed, ``cleanup``."""
 
     label = "Working"
+    #: what the user should know about the result (shown as warnings after the report)
+    warnings: tuple[str, ...] = ()
 
     def step(self) -> float:  # pragma: no cover - abstract
         raise NotImplementedError

@@ -26,9 +26,17 @@ class JobOperator(HardenedOperator):
         raise NotImplementedError
 
     def run(self, context):
-        report = run_job(self.make_job(context), context)
-        self.report({"INFO"}, report)
+        job = self.make_job(context)
+        report = run_job(job, context)
+        self._report_done(job, report)
         return {"FINISHED"}
+
+    def _report_done(self, job: Job, report: str) -> None:
+        """The job's one-line report, then each of its warnings (``Job.warnings``) as a warning."""
+        self.report({"INFO"}, report)
+        for warning in job.warnings:
+            print(f"warning: {warning}")
+            self.report({"WARNING"}, warning)
 
     def invoke(self, context, event):
         if context.window is None:  # background mode or scripts: no event loop
@@ -84,5 +92,5 @@ class JobOperator(HardenedOperator):
             raise
         self._finish_modal(context)
         self._job.cleanup()
-        self.report({"INFO"}, report)
+        self._report_done(self._job, report)
         return {"FINISHED"}

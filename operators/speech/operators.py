@@ -26,6 +26,7 @@ class SpeechJob(Job):
 
     def step(self) -> float:
         self.take = self.make_take()
+        self.warnings = tuple(self.take.utterance.warnings)
         return 1.0
 
     def commit(self, context) -> str:

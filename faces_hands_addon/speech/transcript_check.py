@@ -1,0 +1,269 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Does a transcript match its recording? Per-word confidence of a forced alignment (3.1.3).
+
+Lip sync from a recording (3.1.3: "phonemes ... and their durations") is only as good as the
+transcript it is aligned to. Three checks, all on pocketsphinx's own scores over the same 10 ms frames:
+
+* **speech or not** -- a recording of silence, hiss, hum or steady noise has a flat level: the frame
+  levels' spread (95th minus 10th percentile) stays below ``NONSPEECH_SPREAD_DB``; speech, even at
+  10 dB SNR, rises and falls with its syllables and pauses (:func:`refuse_non_speech`);
+* **word confidence** -- the acoustic score of each word on the forced path is compared with the score
+  of free phone recognition (pocketsphinx ``allphone``: any phone may follow any phone) over the
+  *same frames*; both decoders compute all senones (``compallsen``) so their per-frame normalisation
+  is the same. The confidence is ``(forced - free) / frames`` in pocketsphinx log-score units per
+  frame (0: the words explain the sound as well as free phones do; strongly negative: they do not).
+  Because noise lowers every word alike, a word is named as not matching when its confidence is
+  below ``WORD_LIMIT`` *and* ``WORD_MARGIN`` below the utterance's median word;
+* **whole transcript** -- refused when the words' frame-weighted mean confidence is below
+  ``UTTERANCE_LIMIT``, when more than ``MAX_BAD_SHARE`` of the words do not match, or when the
+  transcript leaves more than ``UNCOVERED_LIMIT`` of the speech frames to silences and fillers.
+
+Missing and extra words: a word the speaker did not say takes frames of its neighbours and scores
+badly over them (named as not matching); speech the transcript lacks is either given to an optional silence
+or filler between two words (a stretch of at least ``GAP_FRAMES`` loud frames: "speech not in the
+transcript between 'a' and 'b'") or absorbed by a neighbouring word, which then does not match or
+lasts far longer per phone than the other words (``LONG_WORD_RATIO``).
+
+Calibration (``bench/transcript_check.py --calibrate``): 12 CALIBRATION sentences, each spoken by
+Festival's CMU ARCTIC SLT HTS voice and by one espeak-ng voice (24 recordings), clean and with seeded
+white noise at 20 and 10 dB SNR; each with its own transcript, another sentence's transcript, one
+word left out and one word added; plus 20 silence / noise recordings. On that set the fit score of
+correct transcripts was >= -60.1 (median -24.8, 72 recordings), of wrong ones with an alignment path
+<= -65.4 (median -121.5; 7 more had no path at all): ``FIT_LIMIT`` = -63 lies between. ``WORD_LIMIT``,
+``WORD_MARGIN`` and ``NAME_MIN_FRAMES`` trade named added words against false alarms on correct
+transcripts (short function words); ``LONG_WORD_RATIO`` raised the named left-out words from 23 to
+28 of 48 without more false alarms (11 of 72). With these values the calibration set gives: correct
+72/72 accepted, wrong 48/48 and silence/noise 20/20 refused, left-out words named 28/48, added words
+36/48. ``RECOGNITION_LW`` was read from the same recordings.
+Held-out (14 other sentences, 28 recordings, same conditions; ``bench/transcript_check.py``): wrong
+transcripts refused 56/56, silence and noise 20/20, correct transcripts accepted 27/28 at 10 dB SNR
+and 28/28 at 20 dB; a left-out word was named by its place in 19/56, an added word by name in 35/56;
+15 of 82 accepted correct transcripts drew a word warning (a false alarm).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..core.errors import UserError
+
+FRAME = 0.01  # pocketsphinx frame length (s)
+HOP = 160     # samples per frame at 16 kHz
+
+#: frame-level spread (dB, 95th - 10th percentile) below which a recording is not speech. On the
+#: calibration recordings: speech clean >= 35.1, at 10 dB SNR >= 16.9 (median 18.3); hiss, white noise
+#: and hum <= 1.4; brown noise 13.2-13.9 passes here and is refused by the transcript or recognition
+#: checks. 12 leaves room for speech below 10 dB SNR.
+NONSPEECH_SPREAD_DB = 12.0
+#: a word's confidence below this (and WORD_MARGIN below the utterance's median word) does not match
+WORD_LIMIT = -60.0
+WORD_MARGIN = 10.0
+#: words shorter than this (frames) are never named: a short function word's score is too noisy
+NAME_MIN_FRAMES = 15
+#: a word this many times longer per phone than the utterance's median word (and at least
+#: LONG_MIN_FRAMES long) has absorbed speech the transcript lacks
+LONG_WORD_RATIO = 2.0
+LONG_MIN_FRAMES = 20
+#: the transcript is refused when FIT_SCORE = mean confidence - UNCOVERED_WEIGHT * uncovered share
+#: - BAD_WEIGHT * share of words below WORD_LIMIT falls below FIT_LIMIT
+FIT_LIMIT = -63.0
+UNCOVERED_WEIGHT = 150.0
+BAD_WEIGHT = 50.0
+#: ... or when more than this share of its words do not match
+MAX_BAD_SHARE = 0.5
+#: share of loud frames the transcript may leave to optional silences and fillers
+UNCOVERED_LIMIT = 0.3
+#: loud frames in a row given to a silence or filler between two words: speech not in the transcript
+GAP_FRAMES = 15
+#: a frame this far over the noise floor counts as speech for coverage and gaps
+LOUD_OVER_FLOOR_DB = 6.0
+#: no-transcript mode: the longest phone recognition may report, the share of speech it must cover
+MAX_PHONE = 0.6
+MIN_RECOGNISED = 0.6
+#: no-transcript mode: the phone language model's weight. pocketsphinx's default lets silence win over
+#: whole sentences of espeak-ng speech (6 phones of 34); at 1.0 recognition finds 0.68-1.03 of the
+#: reference phones and covers >= 71 % of the speech on the calibration recordings
+RECOGNITION_LW = 1.0
+
+
+@dataclass
+class WordFit:
+    """One transcript word on the forced path: frames ``start..end`` (inclusive), its confidence."""
+    token: int
+    text: str
+    start: int
+    end: int
+    confidence: float
+    phones: int = 1
+
+
+@dataclass
+class TranscriptFit:
+    """What :func:`measure` found; :func:`judge` turns it into warnings or a refusal."""
+    words: list[WordFit]
+    gaps: list[tuple[int, int, int]] = field(default_factory=list)  # (after token, start, end frame)
+    uncovered_share: float = 0.0
+    spread_db: float = 0.0
+    texts: list[str] = field(default_factory=list)
+
+    @property
+    def mean_confidence(self) -> float:
+        frames = np.array([w.end - w.start + 1 for w in self.words], dtype=float)
+        scores = np.array([w.confidence for w in self.words], dtype=float)
+        return float((frames * scores).sum() / max(frames.sum(), 1.0)) if len(self.words) else 0.0
+
+
+def frame_levels(pcm: bytes) -> np.ndarray:
+    """Per 10 ms frame of 16 kHz int16 audio: its level in dB."""
+    x = np.frombuffer(pcm, dtype=np.int16).astype(np.float64)
+    n = len(x) // HOP
+    energy = (x[:n * HOP].reshape(n, HOP) ** 2).mean(axis=1) + 1e-3
+    return 10 * np.log10(energy)
+
+
+def loud_frames(pcm: bytes, frames: int) -> np.ndarray:
+    """Per frame: is it speech rather than a pause? Within 25 dB of the loudest frames and at least
+    ``LOUD_OVER_FLOOR_DB`` over the noise floor (the 10th percentile)."""
+    level = frame_levels(pcm)[:frames]
+    if len(level):
+        floor, top = np.percentile(level, 10), np.percentile(level, 95)
+        loud = level > max(top - 25.0, floor + LOUD_OVER_FLOOR_DB)
+    else:
+        loud = np.zeros(0, dtype=bool)
+    return np.concatenate([loud, np.zeros(max(frames - len(loud), 0), dtype=bool)])
+
+
+def level_spread(pcm: bytes) -> float:
+    """95th minus 10th percentile of the frame levels (dB): small for silence and steady noise."""
+    level = frame_levels(pcm)
+    return float(np.percentile(level, 95) - np.percentile(level, 10)) if len(level) else 0.0
+
+
+def refuse_non_speech(pcm: bytes) -> float:
+    """Raise :class:`UserError` when the level never rises and falls like speech; returns the spread."""
+    spread = level_spread(pcm)
+    if spread < NONSPEECH_SPREAD_DB:
+        raise UserError(f"no speech found in the recording (its level varies by only {spread:.1f} dB, like "
+                        "silence or steady noise); give a recording of speech")
+    return spread
+
+
+def free_phone_decoder(ps, **beams):
+    """pocketsphinx's phone loop with the bundled en-us phone model, all senones computed."""
+    return ps.Decoder(allphone=ps.get_model_path("en-us/en-us-phone.lm.bin"), lm=None, loglevel="FATAL",
+                      compallsen=True, **beams)
+
+
+def segments(decoder) -> list[tuple[str, int, int, float]]:
+    logmath = decoder.get_logmath()
+    return [(seg.word, seg.start_frame, seg.end_frame, float(logmath.log(max(seg.ascore, 1e-300))))
+            for seg in decoder.seg()]
+
+
+def _span_score(free: list[tuple[str, int, int, float]], start: int, end: int) -> float:
+    """The free path's score over frames ``start..end``, each segment counted by its overlap."""
+    total = 0.0
+    for _, a, b, score in free:
+        overlap = min(b, end) - max(a, start) + 1
+        if overlap > 0:
+            total += score * overlap / (b - a + 1)
+    return total
+
+
+def is_filler(name: str) -> bool:
+    """Silences, sentence marks and noise fillers of a pocketsphinx path (not transcript words)."""
+    return name.split("(")[0].startswith(("<", "[", "+")) or name.upper() in ("SIL",)
+
+
+def measure(forced_decoder, free_segments, pcm: bytes, texts: list[str]) -> TranscriptFit:
+    """Per transcript word (``texts`` in order) its frames and confidence on the forced path."""
+    forced = segments(forced_decoder)
+    frames = max(forced_decoder.n_frames(), 1)
+    loud = loud_frames(pcm, frames)
+    uncovered = np.zeros(frames, dtype=bool)
+    words: list[WordFit] = []
+    gaps: list[tuple[int, int, int]] = []
+    for name, a, b, score in forced:
+        a, b = max(a, 0), max(b, a)
+        if is_filler(name):
+            uncovered[a:b + 1] = True
+            after = len(words) - 1
+            if loud[a:b + 1].sum() >= GAP_FRAMES:
+                gaps.append((after, a, b))
+            continue
+        token = len(words)
+        if token >= len(texts):
+            break
+        confidence = (score - _span_score(free_segments, a, b)) / (b - a + 1)
+        pronunciation = forced_decoder.lookup_word(name)
+        phones = len(pronunciation.split()) if pronunciation else 1
+        words.append(WordFit(token, texts[token], a, b, confidence, phones))
+    share = float((loud & uncovered).sum() / max(loud.sum(), 1))
+    return TranscriptFit(words, gaps, share, level_spread(pcm), list(texts))
+
+
+def check_recognised(free, pcm: bytes) -> None:
+    """Free phone recognition must cover the speech with phones, never hold one phone for long."""
+    frames = max((b for _, _, b, _ in free), default=-1) + 1
+    loud = loud_frames(pcm, frames)
+    covered = np.zeros(frames, dtype=bool)
+    for name, a, b, _ in free:
+        if not is_filler(name):
+            covered[max(a, 0):b + 1] = True
+            if (b - a + 1) * FRAME > MAX_PHONE:
+                raise UserError(f"phone recognition failed: one phone ({name}) would last "
+                                f"{(b - a + 1) * FRAME:.2f} s at {a * FRAME:.2f} s; give the transcript")
+    share = (loud & covered).sum() / max(loud.sum(), 1)
+    if share < MIN_RECOGNISED:
+        raise UserError(f"phone recognition found phones in only {share:.0%} of the speech; give the "
+                        "transcript, or a clearer recording")
+
+
+def _quoted(words) -> str:
+    return ", ".join(f"'{w}'" for w in words)
+
+
+def fit_score(fit: TranscriptFit) -> float:
+    """One number for the whole transcript (higher: better), compared with ``FIT_LIMIT``."""
+    low = float(np.mean([w.confidence < WORD_LIMIT for w in fit.words])) if fit.words else 1.0
+    return fit.mean_confidence - UNCOVERED_WEIGHT * fit.uncovered_share - BAD_WEIGHT * low
+
+
+def judge(fit: TranscriptFit) -> list[str]:
+    """Warnings that name the words that do not match; :class:`UserError` for a wrong transcript."""
+    advice = "check the words, or leave the transcript empty for phone recognition"
+    if fit.uncovered_share > UNCOVERED_LIMIT:
+        raise UserError(f"the transcript does not match the audio ({fit.uncovered_share:.0%} of the speech "
+                        f"is not covered by its words); {advice}")
+    if not fit.words:
+        raise UserError(f"the transcript does not match the audio (no word was aligned); {advice}")
+    scores = np.array([w.confidence for w in fit.words])
+    median = float(np.median(scores))
+    low = float(np.mean(scores < WORD_LIMIT))
+    score = fit_score(fit)
+    bad = [w for w in fit.words if w.confidence < WORD_LIMIT and w.confidence < median - WORD_MARGIN
+           and w.end - w.start + 1 >= NAME_MIN_FRAMES]
+    if score < FIT_LIMIT or low > MAX_BAD_SHARE:
+        raise UserError(f"the transcript does not match the audio (fit {score:.0f} against free phone "
+                        f"recognition, limit {FIT_LIMIT:.0f}; {low:.0%} of the words fit badly); {advice}")
+    per_phone = np.array([(w.end - w.start + 1) / max(w.phones, 1) for w in fit.words])
+    long = [w for w, q in zip(fit.words, per_phone) if q > LONG_WORD_RATIO * np.median(per_phone)
+            and w.end - w.start + 1 >= LONG_MIN_FRAMES and w not in bad]
+    warnings = []
+    if long:
+        warnings.append("these words last far longer than their sounds need (a word missing next to "
+                        f"them?): {_quoted(w.text for w in long)}")
+    if bad:
+        warnings.append("these words do not match the audio (not spoken, misspelt, or a word is missing "
+                        f"next to them): {_quoted(w.text for w in bad)}")
+    for after, a, b in fit.gaps:
+        if after < 0:
+            where = f"before '{fit.texts[0]}'"
+        elif after + 1 >= len(fit.texts):
+            where = f"after '{fit.texts[after]}'"
+        else:
+            where = f"between '{fit.texts[after]}' and '{fit.texts[after + 1]}'"
+        warnings.append(f"speech not in the transcript {where} ({a * FRAME:.2f}-{(b + 1) * FRAME:.2f} s): "
+                        "a missing word?")
+    return warnings

@@ -1,0 +1,96 @@
+"""The transcript check of audio alignment: right words accepted, wrong words and non-speech refused,
+missing and added words named. The fixture is Festival speech (CMU ARCTIC SLT HTS voice, see
+tests/data/transcript_check/README.md); Festival's own word times are the reference, not ours."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import soundfile
+
+from faces_hands_addon import UserError
+from faces_hands_addon.speech import align_audio
+
+DATA = Path(__file__).resolve().parents[2] / "data" / "transcript_check"
+WAV = DATA / "slt_bring_the_blue_basket.wav"
+TEXT = "Bring the blue basket to the kitchen before dinner."
+#: Festival's word ends (s) when it spoke the fixture; its first phone starts at 0.175 s
+SPEECH_START = 0.175
+FESTIVAL_WORD_ENDS = [0.420, 0.505, 0.745, 1.270, 1.455, 1.550, 1.930, 2.285, 2.690]
+FESTIVAL_PHONES = 33  # non-pause segments Festival reported
+
+
+@pytest.fixture(scope="module")
+def speech():
+    samples, rate = soundfile.read(WAV, dtype="float64")
+    assert rate == 16000 and samples.ndim == 1
+    return samples
+
+
+def _noisy(samples, snr_db, seed=7):
+    noise = np.random.default_rng(seed).standard_normal(len(samples))
+    gain = np.sqrt(np.mean(samples ** 2) / (np.mean(noise ** 2) * 10 ** (snr_db / 10)))
+    return (samples + gain * noise).astype(np.float32)
+
+
+def test_correct_transcript_is_accepted_without_warnings():
+    utterance = align_audio(WAV, TEXT)
+    assert utterance.warnings == []
+    assert [w.text for w in utterance.words] == TEXT.rstrip(".").split()
+    ends = np.array([w.end for w in utterance.words])
+    assert np.median(np.abs(ends - FESTIVAL_WORD_ENDS)) < 0.05
+
+
+def test_correct_transcript_in_10db_noise_is_accepted(speech):
+    utterance = align_audio(_noisy(speech, 10.0), TEXT, sample_rate=16000)
+    assert len(utterance.words) == 9
+    assert not any("do not match" in w for w in utterance.warnings)
+
+
+@pytest.mark.parametrize("wrong", ["The quick brown fox jumps over the lazy dog.",
+                                   "She sells sea shells by the sea shore every summer.",
+                                   "We will meet at the station at seven tomorrow morning."])
+def test_unrelated_transcript_is_refused(wrong):
+    with pytest.raises(UserError, match="does not match the audio"):
+        align_audio(WAV, wrong)
+
+
+def test_added_word_is_named():
+    utterance = align_audio(WAV, "Bring the blue basket to the elephant kitchen before dinner.")
+    assert any("'elephant'" in w for w in utterance.warnings), utterance.warnings
+    assert not any("'basket'" in w or "'dinner'" in w for w in utterance.warnings)
+
+
+def test_missing_word_is_named_by_its_place():
+    """'basket' is spoken but not in the transcript: the warning names 'blue' or 'to' next to it."""
+    utterance = align_audio(WAV, "Bring the blue to the kitchen before dinner.")
+    text = " ".join(utterance.warnings)
+    assert "'blue'" in text or "'to'" in text, utterance.warnings
+
+
+@pytest.mark.parametrize("kind", ["white", "hum", "hiss"])
+def test_non_speech_is_refused(kind):
+    rng = np.random.default_rng(3)
+    t = np.arange(64000) / 16000
+    audio = {"white": 0.1 * rng.standard_normal(64000), "hiss": 1e-3 * rng.standard_normal(64000),
+             "hum": 0.2 * np.sin(2 * np.pi * 50 * t) + 0.1 * np.sin(2 * np.pi * 100 * t)}[kind]
+    for transcript in (TEXT, None):
+        with pytest.raises(UserError, match="no speech"):
+            align_audio(audio.astype(np.float32), transcript, sample_rate=16000)
+
+
+def test_digital_silence_is_refused():
+    with pytest.raises(UserError, match="silent"):
+        align_audio(np.zeros(64000, dtype=np.float32), TEXT, sample_rate=16000)
+
+
+def test_without_transcript_phones_cover_the_speech():
+    utterance = align_audio(WAV)
+    spoken = [p for p in utterance.phones if not p.is_pause]
+    assert 0.6 * FESTIVAL_PHONES <= len(spoken) <= 1.5 * FESTIVAL_PHONES
+    assert max(p.duration for p in spoken) < 0.4
+    first, last = spoken[0], spoken[-1]
+    assert abs(first.start - SPEECH_START) < 0.1
+    assert abs(last.end - FESTIVAL_WORD_ENDS[-1]) < 0.15
+    assert utterance.phones[-1].is_pause  # the trailing silence is silence, not a held phone
