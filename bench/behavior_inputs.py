@@ -5,7 +5,7 @@ sensible results").
 
 Each case runs in its own child process (so one case's memory is not another's peak) through the engine
 path Animate Speech takes: ``take_from_audio``/``take_from_text`` -> ``with_nonverbal`` (behaviour, thesis
-4.3.5 / 4.2.1) -> ``with_loudness`` (4.2.1). The 10-minute file is the two committed LibriVox clips of
+4.3.5 / 4.2.1) -> ``with_loudness`` (4.2.1). The 10-minute file is the committed Festival clips of
 tests/data/speech repeated, recognised without a transcript (phone recognition; forced alignment of a
 10-minute transcript is the align branch's business); its figures: wall time, the child's peak resident
 memory (``resource.getrusage(...).ru_maxrss``) and that peak minus the child's memory after imports, the
@@ -26,7 +26,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "tests" / "data" / "speech"
-CLIPS = ("sense_and_sensibility_01_austen_64kb-0880", "sense_and_sensibility_01_austen_64kb-0930")
+CLIPS = ("slt_ill_disposed", "slt_amiable", "slt_conference", "slt_pump")   # Festival speech, tests/data/speech
 UNKNOWN_TEXT = "Hi :-P can you XD show me <3 the way to the hall? :-D"
 
 

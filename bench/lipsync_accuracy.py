@@ -5,7 +5,8 @@ Ground truth: Festival's HTS voice (Debian ``festival`` + ``festvox-us-slt-hts``
 ``mouth_cues.SENTENCES`` and reports its own segment times (the HTS duration model places the segments the
 waveform follows); pocketsphinx (our aligner) never labelled them. The sentences are joined into one
 recording with 0.5 s of silence between them (``--audio FILE --labels FILE`` measures any labelled recording
-instead: a Praat TextGrid with a phone tier, or a TSV of phone, start, end in seconds).
+instead: a Praat TextGrid with a phone tier, a TSV of phone, start, end in seconds, or the label files of
+tests/data/speech).
 
 Ours: a real ``./fh lipsync --audio ... --transcript ... --out take.glb`` (engine-ready weights, the default
 export; ``--cache`` also measures ``--animation frames``). The GLB is played by three.js (``GLTFLoader`` +
@@ -69,6 +70,8 @@ def read_labels(path: Path):
     text = path.read_text()
     if "IntervalTier" not in text:
         rows = [line.split("\t") for line in text.splitlines() if line.strip() and not line.startswith("#")]
+        rows = [r[1:] if r[0] == "phone" and len(r) == 4 else r for r in rows      # tests/data/speech/*.tsv
+                if r[0] not in ("text", "word")]
         return [(r[0].strip().lower(), float(r[1]), float(r[2])) for r in rows]
     tiers = re.split(r'class = "IntervalTier"', text)[1:]
     tier = next((t for t in tiers if re.search(r'name = "phon', t)), tiers[-1])

@@ -22,7 +22,8 @@ from ..core.controls import ControlSpec, clamp_controls
 from .layers import BASE_LAYER, LayerTable
 from .weights import bounded_nnls
 
-__all__ = ["SPEECH_LAYER", "is_viseme", "control_matrix", "semantic_weights", "closure_frames", "with_closures"]
+__all__ = ["SPEECH_LAYER", "is_viseme", "control_matrix", "semantic_weights", "closure_frames", "with_closures",
+           "with_closed_controls"]
 
 SPEECH_LAYER = "speech"
 
@@ -115,3 +116,18 @@ def with_closures(weights: np.ndarray, names, rows: Mapping[int, str]) -> np.nda
             out[row, visemes] = 0.0
             out[row, names.index(viseme)] = 1.0
     return out
+
+
+def with_closed_controls(table: LayerTable, rows: Mapping[int, str], targets: Mapping[str, Mapping[str, float]],
+                         specs: Mapping[str, ControlSpec]) -> LayerTable:
+    """``table`` with the speech layer of each closure row set to its viseme's articulation (the viseme
+    target's offsets from the defaults, every other speech control 0): what a simulation is fed so that its
+    lips shut on those frames. Rows whose viseme is not among ``targets`` are left as they are."""
+    values = {layer: array.copy() for layer, array in table.values.items()}
+    speech = values.setdefault(SPEECH_LAYER, np.zeros((len(table), len(table.controls))))
+    for row, viseme in rows.items():
+        if viseme not in targets:
+            continue
+        closed = clamp_controls(targets[viseme], specs, strict=True)
+        speech[row] = [closed.get(c, specs[c].default) - specs[c].default for c in table.controls]
+    return LayerTable(table.frames, table.controls, values)

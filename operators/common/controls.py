@@ -116,11 +116,13 @@ def _curves_evaluate_exactly(obj, scene) -> bool:
     return True
 
 
-def sample_layers(obj, scene, specs: Mapping[str, ControlSpec], frames, method: str = "auto") -> LayerTable:
+def sample_layers(obj, scene, specs: Mapping[str, ControlSpec], frames, method: str = "auto",
+                  lead: float = 0.0) -> LayerTable:
     """Every layer of every control at ``frames``, as plain arrays a bake walks without asking Blender
     again. F-curves are evaluated directly where that gives the same values as playing the scene
     (``method="auto"``); otherwise (NLA, drivers, blending) or with ``method="frames"`` each frame is set
-    once and the properties read."""
+    once and the properties read. ``lead`` (frames, may be fractional) gives each row the values that much
+    later: a simulation fed them ahead of time shows them on time despite its response delay."""
     controls = tuple(specs)
     frames = np.asarray(list(frames), dtype=np.int64)
     keys = set(obj.keys())
@@ -141,12 +143,13 @@ def sample_layers(obj, scene, specs: Mapping[str, ControlSpec], frames, method: 
             for column, control in enumerate(controls):
                 curve = curves.get(data_path(control, layer))
                 if curve is not None:
-                    values[layer][:, column] = [curve.evaluate(float(f)) for f in frames]
+                    values[layer][:, column] = [curve.evaluate(float(f) + lead) for f in frames]
         return LayerTable(frames, controls, values)
     original = scene.frame_current
     try:
         for row, frame in enumerate(frames):
-            scene.frame_set(int(frame))
+            at = float(frame) + lead
+            scene.frame_set(int(np.floor(at)), subframe=float(at - np.floor(at)))
             current = layer_values(obj, controls)
             for layer in LAYERS:
                 for column, control in enumerate(controls):

@@ -73,7 +73,7 @@ def bake_job(context, obj, mode: str, preset: str = "all", animation: str = "wei
         raise UserError(f"unknown animation bake {animation!r}; use weights or frames")
     if mode == "ANIMATION" and animation == "weights":
         return common_bake.WeightsBakeJob(context, obj, expressions(preset), EXPORT_ROLES)
-    return common_bake.BakeJob(context, obj, mode, expressions(preset) if mode == "EXPRESSIONS" else None)
+    return common_bake.BakeJob(context, obj, mode, expressions(preset) if mode != "BASIS" else None)
 
 
 def bake(context, obj, mode: str, preset: str = "all", progress=None, animation: str = "weights") -> str:
