@@ -18,9 +18,8 @@ A shape fit alone is ambiguous: many targets overlap (``jawOpen`` and ``viseme_a
 the smiles, frowns and dimples), and the best-fitting mix on this head can be meaningless on another (an
 open vowel as frowns plus a lowered lower lip). So the fit may be held near *prior* weights p_f (the frame's
 semantic weights, ``semantic``): min_w ||B w - d_f||^2 + lambda s ||w - p_f||^2 (s: the Gram matrix's mean
-diagonal), which costs little residual and keeps the weights' meaning. With lambda = inf the named targets
-take the prior as it is and only the corrective targets are fitted (what the animation bakes do: the prior
-is on time, the simulated pose trails it).
+diagonal), which costs little residual and keeps the weights' meaning. Frames that must show one viseme
+(a lip closure) take the prior as it is, with no corrective weight.
 """
 from __future__ import annotations
 
@@ -127,8 +126,6 @@ class _Stage:
         if not len(flat):
             return np.zeros((0, count))
         rhs = solve_triangular(self.lower, self.columns.T @ flat.T, lower=True)       # (T, F)
-        if prior is not None and np.isinf(strength):
-            return np.clip(np.asarray(prior, np.float64), 0.0, 1.0)
         if prior is None or strength <= 0:
             return np.stack([bounded_nnls(self.lower.T, rhs[:, f]) for f in range(len(flat))])
         root = np.sqrt(strength * self.scale)
@@ -154,11 +151,11 @@ class WeightSolver:
         self.columns = np.hstack([stage.columns for stage in self.stages])
 
     def solve_many(self, displacements: np.ndarray, prior: np.ndarray | None = None,
-                   primary_only: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+                   exact: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Weights (F, T) and residuals (F,) of a block of frames (F, V, 3), the primary targets held near
-        ``prior`` (F, primary) when given (equal to it with ``prior_strength=inf``): the large products as
-        one matrix product each, the small bounded problems frame by frame. Rows where ``primary_only``
-        (F,) is set get no corrective weight."""
+        ``prior`` (F, primary) when given: the large products as one matrix product each, the small bounded
+        problems frame by frame. Rows where ``exact`` (F,) is set take the prior as it is and no corrective
+        weight (a lip closure must read as its viseme, whatever the simulated pose)."""
         displacements = np.asarray(displacements, np.float64)
         if displacements.ndim != 3 or displacements.shape[1:] != (self.vertex_count, 3) \
                 or not np.all(np.isfinite(displacements)):
@@ -169,8 +166,9 @@ class WeightSolver:
         found = []
         for index, stage in enumerate(self.stages):
             weights = stage.solve_many(left, prior if index == 0 else None, self.prior_strength)
-            if index and primary_only is not None:
-                weights[np.asarray(primary_only, bool)] = 0.0
+            if exact is not None and prior is not None:
+                rows = np.asarray(exact, bool)
+                weights[rows] = np.clip(prior[rows], 0.0, 1.0) if index == 0 else 0.0
             left = left - weights @ stage.columns.T
             found.append(weights)
         error = left.reshape(len(left), -1, 3)

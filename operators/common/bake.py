@@ -124,12 +124,12 @@ class WeightsBakeJob(Job):
     expression) and the rig's corrective targets (its muscle basis, ``FH.<control>``), simulate the frame
     range, and write all targets once and the weights as F-curves on every mesh of the rig.
 
-    The named targets carry each frame's semantic weights exactly (``anim.semantic``: the coarticulated
-    controls of that frame, so on time, with every lip closure of the take shown closed,
-    ``semantic.with_closures``); the correctives add what the simulation does beyond them (secondary
-    motion), except on closure frames. Fitting the named targets to the simulated pose instead made the
-    exported mouth trail the audio (the physics follows its targets with a delay) and lose most
-    closures: on 121 labelled bilabials, 29 % closed against 99 % now (``bench/lipsync_accuracy.py``)."""
+    Each frame's simulated pose is fitted by the named targets held near its semantic weights
+    (``anim.semantic``: the coarticulated controls of that frame), then by the correctives. The simulation
+    is fed ``CACHE_LEAD_S`` ahead, since it trails its targets; frames of a lip closure of the take take
+    their semantic weights as they are, the closure's viseme alone (``semantic.with_closures``), with no
+    corrective. Fitting lagging poses without these made the exported mouth trail the audio and lose most
+    closures (``bench/lipsync_accuracy.py``)."""
 
     def __init__(self, context, obj, targets: dict, part_roles, correctives: bool = True):
         self.obj_name = obj.name
@@ -155,6 +155,9 @@ class WeightsBakeJob(Job):
         self.prior = semantic.with_closures(prior, list(targets), closed)
         self.closed = np.zeros(len(self.table), bool)
         self.closed[list(closed)] = True
+        # the simulation fed ahead, so the correctives it leaves over are on time too
+        self.sim_table = controls.sample_layers(obj, context.scene, specs, self.table.frames,
+                                                lead=CACHE_LEAD_S / self.dt)
         self.solver = self.frames = None
         self.weights, self.residual = [], []
 
@@ -168,8 +171,8 @@ class WeightsBakeJob(Job):
         bases = [weights.TargetBasis(tuple(s.name for s in shapes),
                                      np.stack([self._local_stack(s.pose) - rest for s in shapes]))
                  for shapes in sets if shapes]
-        self.solver, self.rest = weights.WeightSolver(*bases, prior_strength=np.inf), rest
-        self.frames = baking.animation_poses(self.rig, self.table, self.dt)
+        self.solver, self.rest = weights.WeightSolver(*bases), rest
+        self.frames = baking.animation_poses(self.rig, self.sim_table, self.dt)
 
     def step(self) -> float:
         if self.frames is None:

@@ -86,6 +86,7 @@ def test_bake_modal_progress_and_escape_leave_scene_unchanged(bpy_clean, monkeyp
                            mode="EXPRESSIONS", expression_set="visemes")
     fake.make_job = lambda ctx: cls.make_job(fake, ctx)
     fake._finish_modal = lambda ctx: cls._finish_modal(fake, ctx)
+    fake._report_done = lambda job, report: cls._report_done(fake, job, report)
     assert cls.invoke(fake, context, SimpleNamespace(type="NONE")) == {"RUNNING_MODAL"}
     for _ in range(3):
         assert cls.modal(fake, context, SimpleNamespace(type="TIMER")) == {"RUNNING_MODAL"}

@@ -154,6 +154,7 @@ def test_progress_in_steps_and_esc_cancels_with_nothing_written(bpy_clean):
                            time_slice=0.001)
     fake.make_job = lambda ctx: cls.make_job(fake, ctx)
     fake._finish_modal = lambda ctx: cls._finish_modal(fake, ctx)
+    fake._report_done = lambda job, report: cls._report_done(fake, job, report)
     assert cls.invoke(fake, context, SimpleNamespace(type="NONE")) == {"RUNNING_MODAL"}
     # the take is made in a worker: the timer ticks return at once with the progress so far
     ticks = 0
