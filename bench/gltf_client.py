@@ -281,10 +281,12 @@ def validate(paths: list[Path]) -> list[dict]:
     return json.loads(done.stdout)
 
 
-def play(path: Path, skin: Skin, clip: str, times: np.ndarray, vertices: np.ndarray, shots: list[dict]) -> dict:
+def play(path: Path, skin: Skin, clip: str, times: np.ndarray, vertices: np.ndarray, shots: list[dict],
+         influences: bool = True) -> dict:
     with tempfile.TemporaryDirectory(prefix="fh-gltf-client-") as tmp:
         job, result = Path(tmp) / "job.json", Path(tmp) / "result.json"
         job.write_text(json.dumps({"glb": str(path), "mesh": skin.mesh, "clip": clip, "times": times.tolist(),
+                                   "influences": influences,
                                    "vertices": vertices.tolist(), "shots": shots, "chromium": CHROMIUM,
                                    "focus": skin.rest(vertices).mean(axis=0).tolist(),
                                    "width": 1500, "height": 600}))

@@ -145,7 +145,7 @@ def glb_aperture(path: Path):
     upper, lower = client.lip_vertices(skin, motion)
     vertices = np.concatenate([upper, lower])
     times = np.arange(0.0, float(keys[-1]) + 1e-9, SAMPLE_S)
-    got = client.play(path, skin, glb.gltf["animations"][0]["name"], times, vertices, [])
+    got = client.play(path, skin, glb.gltf["animations"][0]["name"], times, vertices, [], influences=False)
     browser = client.aperture_mm(np.asarray(got["samples"]["positions"]), len(upper))
     file_side = client.aperture_mm(skin.world(client.weights_at(keys, values, interpolation, times), vertices),
                                    len(upper))

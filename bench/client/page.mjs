@@ -47,7 +47,7 @@ window.fhLoad = async (url, meshIndex, clipName) => {
   };
 };
 
-window.fhSample = (times, vertexIndices) => {
+window.fhSample = (times, vertexIndices, withInfluences = true) => {
   // play forward from 0: one mixer.update(dt) per sample time, as a render loop would
   const { mixer, skin, action } = state;
   action.reset(); // a LoopOnce action that reached its end stays paused until reset
@@ -61,7 +61,7 @@ window.fhSample = (times, vertexIndices) => {
     now = t;
     skin.updateMatrixWorld(true);
     mixerTimes.push(state.action.time);
-    influences.push(Array.from(skin.morphTargetInfluences));
+    if (withInfluences) influences.push(Array.from(skin.morphTargetInfluences));
     positions.push(vertexIndices.map((i) => skin.localToWorld(skin.getVertexPosition(i, v)).toArray()));
   }
   return { influences, positions, actionTimes: mixerTimes };

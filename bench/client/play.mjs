@@ -3,7 +3,7 @@
 // folder's page, three.js and the GLB from disk through request interception (no network, no server),
 // and runs the page's fhLoad / fhSample / fhRender. Reads a job JSON file (argv[2]):
 //   {glb, mesh, clip, times: [s], vertices: [i], shots: [{time, png}], focus: [x, y, z], width, height,
-//    chromium}
+//    chromium, influences (false: positions only)}
 // and writes the result JSON to argv[3].
 import { readFile, writeFile } from 'node:fs/promises';
 import { dirname, join } from 'node:path';
@@ -48,7 +48,8 @@ try {
   const info = await page.evaluate(([m, c]) => window.fhLoad('/model.glb', m, c), [job.mesh, job.clip || null]);
   const loadMs = performance.now() - started;
   const sampleStart = performance.now();
-  const samples = await page.evaluate(([t, v]) => window.fhSample(t, v), [job.times, job.vertices]);
+  const samples = await page.evaluate(([t, v, w]) => window.fhSample(t, v, w),
+    [job.times, job.vertices, job.influences !== false]);
   const sampleMs = performance.now() - sampleStart;
   const shots = [];
   for (const shot of job.shots || []) {

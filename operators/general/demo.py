@@ -9,7 +9,9 @@
 3. the thesis' example sentence "Can you show me the way to the conference hall?" spoken with espeak-ng
    on that head, both ways a studio ships it: engine-ready weights of the fixed target set (speech.glb) and
    the exact per-frame cache for offline renders (speech_cache.glb), their sizes printed; the WAV (same
-   start) and contact sheets of frames at phoneme centres;
+   start) and contact sheets of frames at phoneme centres; and the thesis' "Hi! ;-) Can you show me the way
+   to the conference hall? :-)" with non-verbal behaviour and the emoticons' wink and smile
+   (speech_performance.glb and its sheet);
 4. the anatomical reference hand (6.2): contact sheets of the preset poses (palm and thumb side) and of its
    geometric muscles bulging, the showcase motion baked and exported as GLB, the rig as .blend.
 """
@@ -32,6 +34,8 @@ from ..speech.services import run_line
 FPS = 30.0
 
 SENTENCE = "Can you show me the way to the conference hall?"
+#: the thesis' example of emotion tags in text (4.3.5): a wink and a smile, with non-verbal behaviour
+PERFORMANCE = "Hi! ;-) Can you show me the way to the conference hall? :-)"
 
 
 def _scaled(progress, start: float, end: float):
@@ -70,7 +74,11 @@ class Demo:
         outputs += run_line(weights, None, FPS, _scaled(progress, 0.73, 0.8))
         cache = checked_spec({"text": SENTENCE, "out": str(out_dir / "speech_cache.glb"), "animation": "frames"}, FPS)
         cache["wav"] = False                                   # the same audio as speech.wav
-        outputs += run_line(cache, None, FPS, _scaled(progress, 0.8, 0.87))
+        outputs += run_line(cache, None, FPS, _scaled(progress, 0.8, 0.84))
+        performance = checked_spec({"text": PERFORMANCE, "out": str(out_dir / "speech_performance.glb"),
+                                    "sheet": str(out_dir / "speech_performance_sheet.png"), "style": "neutral",
+                                    "seed": "0"}, FPS)
+        outputs += run_line(performance, None, FPS, _scaled(progress, 0.84, 0.87))
         outputs += hand.run_demo(out_dir, _scaled(progress, 0.87, 1.0))
         progress(1.0, "demo finished")
         print(written(outputs))

@@ -24,7 +24,7 @@ FORMATS = {"expressions": "faces_hands.expressions", "face/landmarks": "faces_ha
            "hand/geometric_muscles": "faces_hands.hand_geometric_muscles", "hand/poses": "faces_hands.hand_poses",
            "emotion/emotion_words": "faces_hands.emotion_words",
            "emotion/basic_expressions": "faces_hands.emotion_expressions",
-           "behavior/styles": "faces_hands.behavior_styles"}
+           "behavior/styles": "faces_hands.behavior_styles", "behavior/loudness": "faces_hands.loudness"}
 
 
 def _format_of(relative: str) -> str:
