@@ -28,8 +28,8 @@ MODES = ("BASIS", "EXPRESSIONS", "ANIMATION")
 MAX_FRAMES = 5000            # per-frame cache only: one shape key per frame
 #: object property of a speech take's lip closures (JSON [[start frame, end frame, viseme], ...])
 CLOSURES_PROPERTY = "fh_lip_closures"
-CACHE_LEAD_S = 0.030          # the per-frame cache feeds the simulation this far ahead (measured, cache_table)
-CLOSURE_RAMP_S = 0.067        # and closes the lips this long before a closure starts (2 frames at 30 fps)
+PHYSICS_LEAD_S = 0.030        # animation bakes feed the simulation this far ahead: it trails its targets
+CLOSURE_RAMP_S = 0.067        # the cache closes the lips this long before a closure starts (2 frames at 30 fps)
 FRAME_BLOCK = 64            # frames simulated and fitted per step of the weights bake
 
 
@@ -62,12 +62,12 @@ def animated_table(obj, scene, specs, max_frames: int | None = None):
 
 
 def cache_table(obj, scene, specs, table, targets, dt: float):
-    """What the per-frame cache simulates: the layers ``CACHE_LEAD_S`` ahead (the simulation trails its
+    """What the per-frame cache simulates: the layers ``PHYSICS_LEAD_S`` ahead (the simulation trails its
     targets by about that much), and on the frames from ``CLOSURE_RAMP_S`` before each lip closure of the
     take to its end, the closure's viseme articulation (``semantic.with_closed_controls``) so the simulated
     lips have met when the closure starts. On 47 labelled bilabials (``bench/lipsync_accuracy.py --cache``):
     closed 30 % -> 96 %, closure-midpoint lag +36 ms -> -15 ms."""
-    lead = CACHE_LEAD_S / dt
+    lead = PHYSICS_LEAD_S / dt
     shifted = controls.sample_layers(obj, scene, specs, table.frames, lead=lead)
     spans = [(a - CLOSURE_RAMP_S / dt, b, viseme) for a, b, viseme in closure_spans(obj)]
     rows = semantic.closure_frames(np.asarray(table.frames, np.float64) + lead, spans)
@@ -126,7 +126,7 @@ class WeightsBakeJob(Job):
 
     Each frame's simulated pose is fitted by the named targets held near its semantic weights
     (``anim.semantic``: the coarticulated controls of that frame), then by the correctives. The simulation
-    is fed ``CACHE_LEAD_S`` ahead, since it trails its targets; frames of a lip closure of the take take
+    is fed ``PHYSICS_LEAD_S`` ahead, since it trails its targets; frames of a lip closure of the take take
     their semantic weights as they are, the closure's viseme alone (``semantic.with_closures``), with no
     corrective. Fitting lagging poses without these made the exported mouth trail the audio and lose most
     closures (``bench/lipsync_accuracy.py``)."""
@@ -157,7 +157,7 @@ class WeightsBakeJob(Job):
         self.closed[list(closed)] = True
         # the simulation fed ahead, so the correctives it leaves over are on time too
         self.sim_table = controls.sample_layers(obj, context.scene, specs, self.table.frames,
-                                                lead=CACHE_LEAD_S / self.dt)
+                                                lead=PHYSICS_LEAD_S / self.dt)
         self.solver = self.frames = None
         self.weights, self.residual = [], []
 
