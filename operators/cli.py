@@ -15,7 +15,7 @@ import time
 import traceback
 
 from ..faces_hands_addon.core.errors import UserError
-from .common.interrupts import Terminated, clear, interruptible, raise_pending
+from .common.interrupts import Terminated, clear, interruptible, private_temp_root, raise_pending
 from .common.outputs import ledger_mark, written_since
 
 
@@ -93,7 +93,7 @@ def main(argv: list[str] | None = None) -> int:
             parser.print_help()
             return 2
         started = time.perf_counter()
-        with interruptible():
+        with interruptible(), private_temp_root():
             code = args._run(args, Progress(quiet=args.quiet))
         if not args.quiet:
             print(f"done in {time.perf_counter() - started:.1f} s", file=sys.stderr)

@@ -46,3 +46,30 @@ def test_bad_output_path_writes_nothing(installed, tmp_path):
     assert len(error_lines) == 1, result.stderr
     assert "Traceback" not in result.stderr
     assert sorted(p.name for p in tmp_path.rglob("*")) == before
+
+
+def test_a_commands_temporary_files_all_go_with_it(installed, tmp_path, monkeypatch):
+    """Everything under the command's own temporary root is removed, even a folder whose cleanup an
+    interrupt cut short; a signal while the root is made or removed is raised afterwards, not lost."""
+    import os
+    import signal
+    import tempfile
+
+    from conftest import addon_module
+    interrupts = addon_module("operators.common.interrupts")
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    with pytest.raises(KeyboardInterrupt):
+        with interrupts.interruptible(), interrupts.private_temp_root():
+            nested = tempfile.mkdtemp(prefix="fh-out-")        # cleanup never runs: the interrupt comes first
+            (tmp_path / "seen").write_text(nested)
+            os.kill(os.getpid(), signal.SIGINT)
+    assert tempfile.tempdir == str(tmp_path)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["seen"]
+    assert (tmp_path / "seen").read_text().startswith(str(tmp_path / "fh-run-"))
+    with interrupts.interruptible():
+        with pytest.raises(interrupts.Terminated):
+            with interrupts.deferred():
+                os.kill(os.getpid(), signal.SIGTERM)
+                reached = True                                 # the handler only recorded it
+        assert reached
+    interrupts.clear()

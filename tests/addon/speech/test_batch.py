@@ -122,7 +122,7 @@ def test_an_interrupt_reports_exactly_what_was_written(installed, tmp_path):
 def test_sigterm_removes_every_temporary_folder(installed, tmp_path):
     process = _start(installed, tmp_path, rows=3)
     temp = tmp_path / "tmp"
-    _wait_for(lambda: any(p.name.startswith("fh-jobs-") for p in temp.iterdir())
+    _wait_for(lambda: any(p.name.startswith("fh-jobs-") for p in temp.rglob("*"))   # under the run's root
               and (tmp_path / "row0.glb").exists(), process)
     process.send_signal(signal.SIGTERM)
     _, stderr = process.communicate(timeout=120)
