@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // In-browser half of the client bench: three.js GLTFLoader loads the GLB, an AnimationMixer plays its clip
 // the way a game loop does (mixer.update(dt) with increasing times), and at each sample time the skin mesh's
-// morphTargetInfluences and the world positions of chosen vertices (Mesh.getVertexPosition: morph targets
-// applied on the CPU, then matrixWorld) are read back. fhRender draws the head for a screenshot.
+// morphTargetInfluences, the world positions of chosen vertices (Mesh.getVertexPosition: morph targets
+// applied on the CPU, then matrixWorld) and the skin's matrixWorld (head motion) are read back. fhRender draws the head for a screenshot.
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 
@@ -53,7 +53,7 @@ window.fhSample = (times, vertexIndices, withInfluences = true) => {
   action.reset(); // a LoopOnce action that reached its end stays paused until reset
   mixer.setTime(0);
   let now = 0;
-  const influences = [], positions = [], mixerTimes = [];
+  const influences = [], positions = [], mixerTimes = [], matrices = [];
   const v = new THREE.Vector3();
   for (const t of times) {
     if (t < now) throw new Error('sample times must increase');
@@ -63,8 +63,9 @@ window.fhSample = (times, vertexIndices, withInfluences = true) => {
     mixerTimes.push(state.action.time);
     if (withInfluences) influences.push(Array.from(skin.morphTargetInfluences));
     positions.push(vertexIndices.map((i) => skin.localToWorld(skin.getVertexPosition(i, v)).toArray()));
+    matrices.push(skin.matrixWorld.toArray());  // column-major, as glTF and three.js store it
   }
-  return { influences, positions, actionTimes: mixerTimes };
+  return { influences, positions, actionTimes: mixerTimes, matrices };
 };
 
 window.fhRender = (t, width, height, focus) => {
