@@ -139,6 +139,7 @@ def test_export_frame_range_scale_and_selected_parts(bpy_clean, tmp_path):
     times = [doc["accessors"][s["input"]] for a in doc["animations"] for s in a["samplers"]]
     assert min(t["min"][0] for t in times) == pytest.approx(0.0, abs=1e-6)
     assert max(t["max"][0] for t in times) == pytest.approx(7 / 24, abs=1e-4)
+    assert [a["name"] for a in doc["animations"]] == [rig.name]   # not the name the original steps aside to
     assert [m["name"] for m in doc["meshes"]] and len(doc["meshes"]) == 1            # the skin only
     assert any(n.get("scale", [1, 1, 1])[0] == pytest.approx(100.0) for n in doc["nodes"])
     assert (scene.frame_start, scene.frame_end) == (1, 20)
