@@ -40,9 +40,12 @@ def curled(mcp=85, pip=100, dip=60):
 
 
 TARGETS = {
+    # the ring and little fingers' MyoHand flexion axes are tilted 23-34 degrees towards the thumb, so their
+    # curled tips swing radially: with a 5-degree cascade and no abduction the little finger crossed the ring
+    # and middle fingers (seen from the palm); a 2-degree cascade with the little finger abducted does not
     "relaxed": ("the hand at rest, fingers gently curved", {
-        **{k: v for f, a in zip(FINGERS, (0, 0, 0, 0)) for k, v in finger(f, 20 + 5 * FINGERS.index(f),
-                                                                        25 + 5 * FINGERS.index(f), 10, a).items()},
+        **{k: v for f, a in zip(FINGERS, (0, 3, 0, 15)) for k, v in finger(f, 20 + 2 * FINGERS.index(f),
+                                                                         25 + 2 * FINGERS.index(f), 10, a).items()},
         **thumb(10, 5, 10, 10)}),
     "fist": ("all fingers curled into the palm, thumb over them", {**curled(), **thumb(35, -20, 45, 40)}),
     "point": ("index finger straight, the others curled", {**curled(), **finger("index", 0, 0, 0),
