@@ -51,8 +51,10 @@ TARGETS = {
     "point": ("index finger straight, the others curled", {**curled(), **finger("index", 0, 0, 0),
                                                            **thumb(35, -20, 40, 35)}),
     "thumbs_up": ("fist with the thumb stretched out", {**curled(), **thumb(-15, 15, 0, 0)}),
-    "pinch": ("thumb and index tips meet", {**finger("index", 45, 55, 25), **finger("middle", 30, 40, 20),
-                                             **finger("ring", 30, 45, 20), **finger("pinky", 30, 45, 20),
+    # the other three fingers less curled and the ring and little fingers abducted (the tilted axes again):
+    # at (30, 40-45, 20) the ring finger curled across the middle finger, seen from the palm
+    "pinch": ("thumb and index tips meet", {**finger("index", 45, 55, 25), **finger("middle", 25, 30, 15, 3),
+                                             **finger("ring", 25, 30, 15, 5), **finger("pinky", 25, 30, 15, 15),
                                              **thumb(45, 0, 20, 15)}),
     "spread": ("fingers straight and spread apart", {**finger("index", 0, 0, 0, 25), **finger("middle", 0, 0, 0, 0),
                                                      **finger("ring", 0, 0, 0, 12), **finger("pinky", 0, 0, 0, 14),
