@@ -13,7 +13,9 @@ one closed-up surface the spring network can use.
 4. *Shape*: fingers, thumb and thenar eminence are given rounded sections round their bones
    (:mod:`.skin_shape`); folds left where the asset's webs meet the new sections are smoothed away.
 5. *Clearance*: skin that lies closer to a bone than ``CLEARANCE`` is pushed out along its normal, so the
-   bones stay inside the hand.
+   bones stay inside the hand. On a thin web the normals disagree from node to node, so the push folds it
+   (notches that turned into pockets, light through the finger bases, in the spread pose): the folds it left
+   are relaxed once more afterwards (the web keeps its clearance; tests/engine/hand/test_hand_webs.py).
 
 The skinning weights (used to carry every skin node's attachment point with the bones) come from the asset
 (WebXR joint -> the bone of the same name; tips -> their distal bone), blended for new vertices.
@@ -161,6 +163,7 @@ def fit_reference_skin(skeleton: Skeleton, target_nodes: int = TARGET_NODES) -> 
     vertices = web_membrane(shape_skin(vertices, faces, weights, skeleton), faces, weights, skeleton)
     on_fingers = np.isin(weights.argmax(axis=1), [b for b, n in enumerate(skeleton.names) if "phalanx" in n])
     vertices = _push_out_of_bones(relax_folds(vertices, faces, on_fingers), faces, weights, skeleton)
+    vertices = relax_folds(vertices, faces, on_fingers)          # the folds the push made on the webs
     boundary = np.zeros(len(vertices), bool)
     for loop in refine.boundary_loops(faces):
         boundary[loop] = True
