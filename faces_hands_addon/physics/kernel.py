@@ -1,0 +1,154 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The fused substep kernel (thesis 3.1.2 "Mass Spring Network"): forces, attachments, damping and the
+leapfrog update of :class:`~.integrator.LeapfrogIntegrator` in one compiled loop.
+
+The numpy path of :mod:`.springs` / :mod:`.integrator` stays the reference and the fallback: it computes
+every step as a chain of whole-array operations, each of which streams its temporaries through memory.
+This kernel does the same arithmetic per spring and per node in one pass (biphasic law, guarded divisor,
+zero-rest attachment pair ``c (anchor + mirror) - 2 c x``, exact damping factor ``exp(-2h)``, kick
+``dt (1 - e^-2h) / 2h``, kinematic nodes held, attachment pull and driven nodes interpolated over the
+substeps), compiled by numba. It agrees with the numpy path to rounding (summation order of the spring
+forces differs; ``tests/engine/physics/test_physics_kernel.py`` requires 1e-9 m).
+
+Compiled code is cached only in the folder :func:`set_cache_folder` names (the add-on passes its user
+folder, ``bpy.utils.extension_path_user(...)/cache/numba``), never next to the installed sources; without
+a folder the kernel is compiled in memory on first use. ``FH_PHYSICS_KERNEL=numpy`` selects the reference
+path; numba missing or failing to import (e.g. Intel macOS, for which numba ships no wheels) selects it
+too, silently.
+"""
+from __future__ import annotations
+
+import math
+import os
+import time
+from pathlib import Path
+
+__all__ = ["set_cache_folder", "cache_folder", "available", "substep_kernel", "compile_seconds",
+           "ENV_VARIABLE"]
+
+#: environment variable: "numpy" forces the reference path, anything else lets numba be used if present
+ENV_VARIABLE = "FH_PHYSICS_KERNEL"
+
+_STATE = {"folder": None, "kernel": None, "tried": False, "compile_s": None, "error": None}
+
+
+def set_cache_folder(folder: str | os.PathLike | None) -> None:
+    """Where numba may store compiled code (the extension's user folder); ``None``: compile in memory.
+    Takes effect for a kernel not yet built in this process."""
+    _STATE["folder"] = None if folder is None else Path(folder)
+
+
+def cache_folder() -> Path | None:
+    return _STATE["folder"]
+
+
+def compile_seconds() -> float | None:
+    """Wall time of the first call (numba import + compile or cache load), once it happened."""
+    return _STATE["compile_s"]
+
+
+def _substeps(x, v, force, s_start, s_end, rest, k_soft, knee, k_extra, k_yield, has_yield, min_length,
+              att_node, att_two_c, pull, start_pull, delta_pull, interp_pull,
+              kin_index, start_driven, delta_driven, interp_driven,
+              inverse_mass, decay, kick, free, dt, first, count, substeps):  # pragma: no cover - compiled
+    """Substeps ``first .. first + count - 1`` of a frame of ``substeps`` (see the module docstring)."""
+    nodes = x.shape[1]
+    springs = s_start.shape[0]
+    attached = att_node.shape[0]
+    driven = kin_index.shape[0]
+    for index in range(first, first + count):
+        fraction = index / substeps
+        if interp_pull:
+            for c in range(3):
+                for a in range(attached):
+                    pull[c, a] = delta_pull[c, a] * fraction + start_pull[c, a]
+        if interp_driven:
+            for j in range(driven):
+                k = kin_index[j]
+                for c in range(3):
+                    x[c, k] = start_driven[c, j] + fraction * delta_driven[c, j]
+        for c in range(3):
+            for i in range(nodes):
+                force[c, i] = 0.0
+        for s in range(springs):
+            a = s_start[s]
+            b = s_end[s]
+            dx = x[0, b] - x[0, a]
+            dy = x[1, b] - x[1, a]
+            dz = x[2, b] - x[2, a]
+            length = math.sqrt(dx * dx + dy * dy + dz * dz)
+            stretch = length - rest[s]
+            over = stretch - knee[s]
+            extra = (over if over > 0.0 else 0.0) * k_extra[s]
+            if has_yield:
+                extra = extra + (stretch if stretch < 0.0 else 0.0) * k_yield[s]
+            magnitude = stretch * k_soft[s] + extra
+            if length < min_length[s]:
+                length = min_length[s]
+            scale = magnitude / length
+            fx = dx * scale
+            fy = dy * scale
+            fz = dz * scale
+            force[0, a] += fx
+            force[1, a] += fy
+            force[2, a] += fz
+            force[0, b] -= fx
+            force[1, b] -= fy
+            force[2, b] -= fz
+        for j in range(attached):
+            k = att_node[j]
+            for c in range(3):
+                force[c, k] += pull[c, j] - x[c, k] * att_two_c[j]
+        for i in range(nodes):
+            keep = free[i]
+            mass_factor = inverse_mass[i]
+            damp = decay[i]
+            impulse = kick[i]
+            for c in range(3):
+                velocity = (v[c, i] * damp + (force[c, i] * mass_factor) * impulse) * keep
+                v[c, i] = velocity
+                x[c, i] += dt * velocity
+
+
+def available() -> bool:
+    """Is the compiled kernel usable here (numba importable and not switched off)?"""
+    return substep_kernel() is not None
+
+
+def substep_kernel():
+    """The compiled :func:`_substeps` (built on first call), or ``None`` when the numpy path must run."""
+    if os.environ.get(ENV_VARIABLE, "").lower() == "numpy":
+        return None
+    if _STATE["tried"]:
+        return _STATE["kernel"]
+    _STATE["tried"] = True
+    started = time.perf_counter()
+    folder = _STATE["folder"]
+    try:
+        if folder is not None:
+            folder.mkdir(parents=True, exist_ok=True)
+            os.environ.setdefault("NUMBA_CACHE_DIR", str(folder))
+        import numba
+        if folder is not None:
+            numba.config.CACHE_DIR = str(folder)
+        compiled = numba.njit(cache=folder is not None, nogil=True, boundscheck=False)(_substeps)
+        _warm_up(compiled)
+    except Exception as error:            # no numba, an unsupported numpy, a broken LLVM: the numpy path
+        _STATE["error"] = f"{type(error).__name__}: {error}"
+        _STATE["kernel"] = None
+        return None
+    _STATE["kernel"] = compiled
+    _STATE["compile_s"] = time.perf_counter() - started
+    return compiled
+
+
+def _warm_up(compiled) -> None:
+    """Compile (or load from the cache) for the argument types the integrator passes."""
+    import numpy as np
+    f3 = np.zeros((3, 2))
+    one = np.zeros(2)
+    index = np.zeros(1, np.int64)
+    compiled(f3.copy(), f3.copy(), f3.copy(), index, index + 1, one[:1], one[:1], one[:1], one[:1], one[:1],
+             False, one[:1] + 1.0, np.zeros(0, np.int64), np.zeros(0), np.zeros((3, 0)), np.zeros((3, 0)),
+             np.zeros((3, 0)), False, np.zeros(0, np.int64), np.zeros((3, 0)), np.zeros((3, 0)), False,
+             one + 1.0, one + 1.0, one, one + 1.0, 0.01, 1, 1, 1)
