@@ -87,6 +87,15 @@ class FaceNetwork:
     anchor_offset: np.ndarray          # (N, 3) node -> bone vector at rest (anchor = target + offset)
     material: SkinMaterial
 
+    def set_backend(self, backend: str) -> None:
+        """"numba" (fused kernel and compiled guards, physics/kernel.py, when numba is importable) or
+        "numpy" (the reference path) for the integrator and every guard."""
+        if backend not in ("numba", "numpy"):
+            raise UserError(f"unknown simulation backend {backend!r}; use 'numba' or 'numpy'")
+        self.integrator.backend = backend
+        for guard in (self.bone_guard, self.teeth_guard, *self.eye_guards):
+            guard.backend = backend
+
     def constrain(self, positions: np.ndarray, velocity: np.ndarray, fraction: float) -> None:
         self.bone_guard(positions, velocity, fraction)
         self.teeth_guard(positions, velocity, fraction)

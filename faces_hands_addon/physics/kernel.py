@@ -7,7 +7,8 @@ every step as a chain of whole-array operations, each of which streams its tempo
 This kernel does the same arithmetic per spring and per node in one pass (biphasic law, guarded divisor,
 zero-rest attachment pair ``c (anchor + mirror) - 2 c x``, exact damping factor ``exp(-2h)``, kick
 ``dt (1 - e^-2h) / 2h``, kinematic nodes held, attachment pull and driven nodes interpolated over the
-substeps), compiled by numba. It agrees with the numpy path to rounding (summation order of the spring
+substeps), compiled by numba; the bone/teeth half-space guard and the eye-sphere guard
+(:mod:`.collision`) have compiled loops too. It agrees with the numpy path to rounding (summation order of the spring
 forces differs; ``tests/engine/physics/test_physics_kernel.py`` requires 1e-9 m).
 
 Compiled code is cached only in the folder :func:`set_cache_folder` names (the add-on passes its user
@@ -23,13 +24,14 @@ import os
 import time
 from pathlib import Path
 
-__all__ = ["set_cache_folder", "cache_folder", "available", "substep_kernel", "compile_seconds",
-           "ENV_VARIABLE"]
+__all__ = ["set_cache_folder", "cache_folder", "available", "substep_kernel", "guard_kernels",
+           "compile_seconds", "ENV_VARIABLE"]
 
 #: environment variable: "numpy" forces the reference path, anything else lets numba be used if present
 ENV_VARIABLE = "FH_PHYSICS_KERNEL"
 
-_STATE = {"folder": None, "kernel": None, "tried": False, "compile_s": None, "error": None}
+_STATE = {"folder": None, "kernel": None, "half_space": None, "sphere": None, "tried": False,
+          "compile_s": None, "error": None}
 
 
 def set_cache_folder(folder: str | os.PathLike | None) -> None:
@@ -110,6 +112,57 @@ def _substeps(x, v, force, s_start, s_end, rest, k_soft, knee, k_extra, k_yield,
                 x[c, i] += dt * velocity
 
 
+def _half_space(x, v, nodes, point, normal, start_point, start_normal, interpolate, fraction,
+                clearance):  # pragma: no cover - compiled
+    """:class:`~.collision.BoneHalfSpaceGuard` ``__call__``: planes slid from the start of the frame by
+    ``fraction``, nodes projected out of the clearance band, their inward velocity removed."""
+    for j in range(nodes.shape[0]):
+        k = nodes[j]
+        if interpolate:
+            px = start_point[0, j] + fraction * (point[0, j] - start_point[0, j])
+            py = start_point[1, j] + fraction * (point[1, j] - start_point[1, j])
+            pz = start_point[2, j] + fraction * (point[2, j] - start_point[2, j])
+            nx = start_normal[0, j] + fraction * (normal[0, j] - start_normal[0, j])
+            ny = start_normal[1, j] + fraction * (normal[1, j] - start_normal[1, j])
+            nz = start_normal[2, j] + fraction * (normal[2, j] - start_normal[2, j])
+            size = math.sqrt(nx * nx + ny * ny + nz * nz)
+            if size < 1e-12:
+                size = 1e-12
+            nx /= size
+            ny /= size
+            nz /= size
+        else:
+            px, py, pz = point[0, j], point[1, j], point[2, j]
+            nx, ny, nz = normal[0, j], normal[1, j], normal[2, j]
+        depth = clearance[j] - ((x[0, k] - px) * nx + (x[1, k] - py) * ny + (x[2, k] - pz) * nz)
+        if depth > 0.0:
+            x[0, k] += nx * depth
+            x[1, k] += ny * depth
+            x[2, k] += nz * depth
+            inward = v[0, k] * nx + v[1, k] * ny + v[2, k] * nz
+            if inward < 0.0:
+                v[0, k] -= nx * inward
+                v[1, k] -= ny * inward
+                v[2, k] -= nz * inward
+
+
+def _sphere(x, nodes, centre, radius):  # pragma: no cover - compiled
+    """:class:`~.collision.SphereGuard` ``__call__``: nodes pushed out to ``radius`` from ``centre``."""
+    for j in range(nodes.shape[0]):
+        k = nodes[j]
+        dx = x[0, k] - centre[0]
+        dy = x[1, k] - centre[1]
+        dz = x[2, k] - centre[2]
+        dist = math.sqrt(dx * dx + dy * dy + dz * dz)
+        if dist < 1e-12:
+            dist = 1e-12
+        scale = radius / dist
+        if scale > 1.0:
+            x[0, k] = centre[0] + dx * scale
+            x[1, k] = centre[1] + dy * scale
+            x[2, k] = centre[2] + dz * scale
+
+
 def available() -> bool:
     """Is the compiled kernel usable here (numba importable and not switched off)?"""
     return substep_kernel() is not None
@@ -131,7 +184,9 @@ def substep_kernel():
         import numba
         if folder is not None:
             numba.config.CACHE_DIR = str(folder)
-        compiled = numba.njit(cache=folder is not None, nogil=True, boundscheck=False)(_substeps)
+        jit = numba.njit(cache=folder is not None, nogil=True, boundscheck=False)
+        compiled = jit(_substeps)
+        _STATE["half_space"], _STATE["sphere"] = jit(_half_space), jit(_sphere)
         _warm_up(compiled)
     except Exception as error:            # no numba, an unsupported numpy, a broken LLVM: the numpy path
         _STATE["error"] = f"{type(error).__name__}: {error}"
@@ -140,6 +195,13 @@ def substep_kernel():
     _STATE["kernel"] = compiled
     _STATE["compile_s"] = time.perf_counter() - started
     return compiled
+
+
+def guard_kernels():
+    """``(half_space, sphere)`` compiled guard loops, or ``None`` when the numpy path must run."""
+    if substep_kernel() is None:
+        return None
+    return _STATE["half_space"], _STATE["sphere"]
 
 
 def _warm_up(compiled) -> None:
@@ -152,3 +214,7 @@ def _warm_up(compiled) -> None:
              False, one[:1] + 1.0, np.zeros(0, np.int64), np.zeros(0), np.zeros((3, 0)), np.zeros((3, 0)),
              np.zeros((3, 0)), False, np.zeros(0, np.int64), np.zeros((3, 0)), np.zeros((3, 0)), False,
              one + 1.0, one + 1.0, one, one + 1.0, 0.01, 1, 1, 1)
+    half_space, sphere = _STATE["half_space"], _STATE["sphere"]
+    half_space(f3.copy(), f3.copy(), index, f3[:, :1].copy(), f3[:, :1] + 1.0, f3[:, :1].copy(),
+               f3[:, :1] + 1.0, True, 0.5, one[:1])
+    sphere(f3.copy(), index, np.zeros(3), 0.01)

@@ -1,6 +1,10 @@
 """The fused numba kernel (physics/kernel.py) against the numpy reference path of the integrator (thesis
 3.1.2 "Mass Spring Network"): same network, same frames, positions agree to 1e-9 m."""
 import importlib.util
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -65,7 +69,7 @@ def test_fused_kernel_matches_on_the_default_face():
     for backend in ("numpy", "numba"):
         rig.reset_state()
         rig.reset_controls()
-        rig.face.integrator.backend = backend
+        rig.face.set_backend(backend)
         rig.set_controls({"jaw_open": 0.6, "zygomaticus_major_L": 0.8, "orbicularis_oris_protrusion": 0.5})
         for _ in range(12):
             rig.step_frame(1 / 24)
@@ -73,9 +77,49 @@ def test_fused_kernel_matches_on_the_default_face():
     assert np.abs(results[0] - results[1]).max() < TOLERANCE_M
 
 
-def test_kernel_switch_and_cache_folder(monkeypatch, tmp_path):
+def test_kernel_switch(monkeypatch):
     monkeypatch.setenv(kernel.ENV_VARIABLE, "numpy")
-    assert kernel.substep_kernel() is None                   # the reference path, on request
+    assert kernel.substep_kernel() is None and kernel.guard_kernels() is None   # the reference, on request
     monkeypatch.delenv(kernel.ENV_VARIABLE)
     assert kernel.substep_kernel() is not None
     assert kernel.compile_seconds() is not None and kernel.compile_seconds() > 0
+
+
+def test_compiled_code_is_cached_in_the_given_folder_only(tmp_path):
+    """numba's cache goes to the folder the add-on names (its user folder), never beside the sources."""
+    package = Path(kernel.__file__).parent
+    before = set(package.rglob("*.nbi")) | set(package.rglob("*.nbc"))
+    script = ("import sys; from faces_hands_addon.physics import kernel; "
+              f"kernel.set_cache_folder({str(tmp_path / 'numba')!r}); "
+              "sys.exit(0 if kernel.substep_kernel() is not None else 1)")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
+    env.pop("NUMBA_CACHE_DIR", None)
+    subprocess.run([sys.executable, "-c", script], check=True, env=env, timeout=600)
+    assert list((tmp_path / "numba").rglob("*.nbi")) and list((tmp_path / "numba").rglob("*.nbc"))
+    assert set(package.rglob("*.nbi")) | set(package.rglob("*.nbc")) == before
+
+
+@pytest.mark.parametrize("fraction", [0.25, 1.0])
+def test_compiled_guards_match_numpy(fraction):
+    from faces_hands_addon.physics import BoneHalfSpaceGuard, SphereGuard
+    rng = np.random.default_rng(7)
+    nodes = np.sort(rng.choice(400, 150, replace=False))
+    point, normal = rng.normal(size=(3, 150)) * 0.01, rng.normal(size=(3, 150))
+    outcome = []
+    for backend in ("numpy", "numba"):
+        x, v = np.random.default_rng(3).normal(size=(3, 400)) * 0.01, np.random.default_rng(4).normal(size=(3, 400))
+        guard = BoneHalfSpaceGuard(nodes, point, normal, np.zeros(150, np.int64), 0.002)
+        guard.backend = backend
+        guard.set_bone_transforms([np.eye(4)])
+        guard.begin_frame()
+        moved = np.eye(4)
+        moved[:3, 3] = [0.001, -0.002, 0.003]
+        guard.set_bone_transforms([moved])
+        guard(x, v, fraction)
+        eye = SphereGuard(nodes[::2], [0.001, 0.0, -0.002], 0.008)
+        eye.backend = backend
+        eye(x, v, fraction)
+        outcome.append((x, v))
+    assert np.abs(outcome[0][0] - outcome[1][0]).max() < TOLERANCE_M
+    assert np.abs(outcome[0][1] - outcome[1][1]).max() < 1e-9
+    assert np.abs(outcome[0][0] - np.random.default_rng(3).normal(size=(3, 400)) * 0.01).max() > 1e-4  # guards acted
