@@ -18,6 +18,9 @@ stiff settings), the integrator scales all masses up for that frame instead (mas
 equilibrium, reached more slowly), so every parameter value the UI allows gives a finite, non-growing
 simulation at a bounded cost. A last check after every frame restores the previous state if anything
 became non-finite anyway.
+
+The substeps run in the fused numba kernel of :mod:`.kernel` when numba is importable (``backend``
+``"numba"``, the default); the numpy code here is the reference and the fallback (``backend = "numpy"``).
 """
 from __future__ import annotations
 
@@ -130,7 +133,6 @@ class LeapfrogIntegrator:
         self._factor_cache = None
         self._free = (~self.network.kinematic).astype(np.float64)
         self._inverse_mass = self._free / self.network.masses
-        self._kinematic_index = np.flatnonzero(self.network.kinematic).astype(np.int64)
         self._no_index = np.zeros(0, np.int64)
         self.max_substep = stable_time_step(self.network, self.damping, self.safety)
         free = ~self.network.kinematic
@@ -268,7 +270,7 @@ class LeapfrogIntegrator:
         else:
             start_pull = delta_pull = empty3
         if driven is not None:
-            kin_index = self._kinematic_index
+            kin_index = np.flatnonzero(net.kinematic).astype(np.int64)      # as the numpy path reads them
             delta_driven = np.ascontiguousarray(np.asarray(driven, np.float64)[:, kin_index] - start_driven)
             start_driven = np.ascontiguousarray(start_driven)
         else:
