@@ -17,6 +17,13 @@ from . import kernel
 __all__ = ["BoneHalfSpaceGuard", "SphereGuard"]
 
 
+def _compiled_guards(backend: str):
+    """The compiled guard loops for ``backend`` (see the classes' ``backend``), or ``None``."""
+    if backend == "numba" or (backend == "auto" and kernel.loaded()):
+        return kernel.guard_kernels()
+    return None
+
+
 class BoneHalfSpaceGuard:
     """Keeps ``nodes`` outside the tangent half-spaces ``(x - point) . normal >= clearance``.
 
@@ -26,8 +33,9 @@ class BoneHalfSpaceGuard:
     along the bone since its plane was last chosen (incremental: a resting face costs nothing).
     """
 
-    #: "numba" (the compiled loop of .kernel when numba is importable) or "numpy" (the reference path)
-    backend = "numba"
+    #: "auto" (the compiled loop of .kernel once the network's integrator loaded it), "numba" (it whenever
+    #: numba is importable) or "numpy" (the reference path)
+    backend = "auto"
 
     def __init__(self, nodes: np.ndarray, point: np.ndarray, normal: np.ndarray, bone: np.ndarray,
                  clearance: np.ndarray | float) -> None:
@@ -224,7 +232,7 @@ class BoneHalfSpaceGuard:
         """Project escaped nodes back outside and remove their inward velocity (in place, (3, N))."""
         nodes = self.nodes
         start = getattr(self, "_start", None)
-        compiled = kernel.guard_kernels() if self.backend == "numba" else None
+        compiled = _compiled_guards(self.backend)
         if compiled is not None and positions.flags.c_contiguous and velocity.flags.c_contiguous:
             interpolate = not (start is None or fraction >= 1.0)
             start_point, start_normal = start if interpolate else (self.point, self.normal)
@@ -256,11 +264,11 @@ class SphereGuard:
         self.centre = np.asarray(centre, np.float64).reshape(3, 1)
         self.radius = float(radius)
 
-    #: "numba" (the compiled loop of .kernel when numba is importable) or "numpy" (the reference path)
-    backend = "numba"
+    #: "auto", "numba" or "numpy", as for :class:`BoneHalfSpaceGuard`
+    backend = "auto"
 
     def __call__(self, positions: np.ndarray, velocity: np.ndarray, fraction: float = 1.0) -> None:
-        compiled = kernel.guard_kernels() if self.backend == "numba" else None
+        compiled = _compiled_guards(self.backend)
         if compiled is not None and positions.flags.c_contiguous:
             compiled[1](positions, self.nodes, self.centre[:, 0], self.radius)
             return

@@ -19,8 +19,9 @@ equilibrium, reached more slowly), so every parameter value the UI allows gives 
 simulation at a bounded cost. A last check after every frame restores the previous state if anything
 became non-finite anyway.
 
-The substeps run in the fused numba kernel of :mod:`.kernel` when numba is importable (``backend``
-``"numba"``, the default); the numpy code here is the reference and the fallback (``backend = "numpy"``).
+The substeps run in the fused numba kernel of :mod:`.kernel` when numba is importable and the network is
+large enough to pay for loading it (``backend`` ``"auto"``, the default; ``"numba"`` whatever the size); the
+numpy code here is the reference and the fallback (``backend = "numpy"``).
 """
 from __future__ import annotations
 
@@ -124,8 +125,9 @@ class LeapfrogIntegrator:
         self._inverse_mass = self._free / network.masses
         self._accel = np.empty_like(network.positions)
         self._factor_cache = None
-        #: "numba" (the fused kernel of .kernel when numba is importable) or "numpy" (the reference path)
-        self.backend = "numba"
+        #: "auto" (the fused kernel of .kernel for networks where it pays), "numba" (it whenever numba is
+        #: importable) or "numpy" (the reference path)
+        self.backend = "auto"
         self.refresh()
 
     def refresh(self) -> None:
@@ -253,7 +255,9 @@ class LeapfrogIntegrator:
 
     def _kernel(self):
         """The fused numba kernel (:mod:`.kernel`) if this integrator may use it, else ``None``."""
-        if self.backend != "numba":
+        if self.backend == "numpy":
+            return None
+        if self.backend == "auto" and not kernel.pays_for(self.network.positions.shape[1]):
             return None
         return kernel.substep_kernel()
 

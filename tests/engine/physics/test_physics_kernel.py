@@ -123,3 +123,21 @@ def test_compiled_guards_match_numpy(fraction):
     assert np.abs(outcome[0][0] - outcome[1][0]).max() < TOLERANCE_M
     assert np.abs(outcome[0][1] - outcome[1][1]).max() < 1e-9
     assert np.abs(outcome[0][0] - np.random.default_rng(3).normal(size=(3, 400)) * 0.01).max() > 1e-4  # guards acted
+
+
+def test_auto_backend_loads_numba_only_where_it_pays():
+    """A short bake of the default head stays on numpy (no ~2 s numba load per command); a big network,
+    a long announced bake or an interactive session use the kernel (physics/kernel.py, "Where it pays")."""
+    script = (
+        "import sys; from faces_hands_addon.physics import kernel as k; "
+        "from faces_hands_addon.face.rig import build_default_rig; "
+        "rig = build_default_rig('default'); rig.set_controls({'jaw_open': 0.5}); "
+        "k.expect_frames(60); rig.step_frame(1 / 24); small = k.loaded(); "
+        "nodes = rig.face.network.positions.shape[1]; "
+        "decisions = (k.pays_for(nodes), k.pays_for(k.AUTO_MIN_NODES)); "
+        "k.expect_frames(900); long = k.pays_for(nodes); k.expect_frames(0); k.set_interactive(True); "
+        "live = k.pays_for(nodes); "
+        "sys.exit(0 if (small, decisions, long, live) == (False, (False, True), True, True) else 1)")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
+    env.pop(kernel.ENV_VARIABLE, None)
+    subprocess.run([sys.executable, "-c", script], check=True, env=env, timeout=600)
