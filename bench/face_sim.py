@@ -12,6 +12,12 @@ in the same run: Blender's Cloth modifier (default quality) on the same 10k-node
 of frames (``cloth_ratio`` = Cloth ms per frame / our ms per frame), the cost of pushing 10k positions into
 a shape key (``push_ms``), and the whole live-preview step of the default head inside Blender (controls
 read from the rig object, simulate, push skin + eyes/jaw/teeth/tongue + muscle display).
+
+These figures leave Blender's share out: ``push_ms`` is a bare ``foreach_set`` + ``mesh.update()`` (the
+depsgraph evaluation it triggers is not in it), ``live_fps`` has no depsgraph evaluation and only the
+default head, and ``cloth_ratio`` compares against an unpinned Cloth under gravity. The honest figures are
+``bench/live_tick.py`` (step + shape-key write + depsgraph, default/10k/fitted 50k heads) and
+``bench/kernel.py`` (frame and substep cost, numpy vs the numba kernel, 3k/11k/45k nodes).
 """
 from __future__ import annotations
 

@@ -268,22 +268,32 @@ class MuscleSystem:
         """Thickness per point: thicker with contraction (linear: most mid-belly, sphincter: evenly),
         thinner when stretched beyond the length its own contraction gave it (volume kept: t ~ 1/sqrt)."""
         thickness = self.thickness_rest.copy()
-        for index, spec in enumerate(self.specs):
-            sl = self.slice(index)
-            rows, cols = self.shapes[index]
+        for index, (sl, rows, cols, profile, rest_thickness) in enumerate(self._bulge_static()):
+            spec = self.specs[index]
             pts = points[sl].reshape(rows, cols, 3)
             seg = np.linalg.norm(np.diff(pts, axis=0), axis=-1)
-            length = np.maximum(seg.sum(axis=0), 1e-9)
-            expected = self.fibre_length[index] * own_length[sl].reshape(rows, cols).mean(axis=0)
-            stretch = np.clip(length / np.maximum(expected, 1e-9), 0.25, 4.0)
-            c = contraction[index]
-            if spec.kind == "linear":
-                profile = np.sin(np.pi * self.position_along[index])
-            else:
-                profile = np.ones((rows, cols))
-            grow = 1.0 + spec.bulge * c * profile
-            thickness[sl] = (self.thickness_rest[sl].reshape(rows, cols) * grow / np.sqrt(stretch)[None, :]).ravel()
+            length = np.maximum(np.add.reduce(seg, axis=0), 1e-9)
+            # the mean over rows, as ndarray.mean computes it (sum, then divide), without its overhead
+            expected = self.fibre_length[index] * (np.add.reduce(own_length[sl].reshape(rows, cols), axis=0) / rows)
+            stretch = np.minimum(np.maximum(length / np.maximum(expected, 1e-9), 0.25), 4.0)
+            grow = 1.0 + spec.bulge * contraction[index] * profile
+            thickness[sl] = (rest_thickness * grow / np.sqrt(stretch)[None, :]).ravel()
         return thickness
+
+    def _bulge_static(self) -> list:
+        """Per muscle: slice, rows, columns, bulge profile along the fibre (linear: sin, most mid-belly;
+        sphincter: even) and rest thickness grid -- fixed once the muscles are placed (built on first use)."""
+        static = getattr(self, "_bulge_cache", None)
+        if static is None:
+            static = []
+            for index, spec in enumerate(self.specs):
+                rows, cols = self.shapes[index]
+                sl = self.slice(index)
+                profile = (np.sin(np.pi * self.position_along[index]) if spec.kind == "linear"
+                           else np.ones((rows, cols)))
+                static.append((sl, rows, cols, profile, self.thickness_rest[sl].reshape(rows, cols).copy()))
+            self._bulge_cache = static
+        return static
 
     def fibres(self, points: np.ndarray) -> list[tuple[str, np.ndarray]]:
         """Fibre polylines (muscle name, (R, 3)) of a deformed state, for visualisation."""

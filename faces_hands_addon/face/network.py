@@ -36,6 +36,7 @@ from ..core.errors import UserError
 from ..physics import (Attachments, BoneHalfSpaceGuard, LeapfrogIntegrator, SphereGuard, SpringNetwork,
                        SpringSet)
 from ..core import geometry
+from ..physics import kernel
 from .attachment import BoneSurface
 from .template import HeadTemplate
 
@@ -86,6 +87,16 @@ class FaceNetwork:
     eye_guards: list[SphereGuard]
     anchor_offset: np.ndarray          # (N, 3) node -> bone vector at rest (anchor = target + offset)
     material: SkinMaterial
+
+    def set_backend(self, backend: str) -> None:
+        """"auto" (the default: the fused kernel where it pays, physics/kernel.py), "numba" (kernel and
+        compiled guards whenever numba is importable) or "numpy" (the reference path) for the integrator
+        and every guard."""
+        if backend not in kernel.BACKENDS:
+            raise UserError(f"unknown simulation backend {backend!r}; use one of {', '.join(kernel.BACKENDS)}")
+        self.integrator.backend = backend
+        for guard in (self.bone_guard, self.teeth_guard, *self.eye_guards):
+            guard.backend = backend
 
     def constrain(self, positions: np.ndarray, velocity: np.ndarray, fraction: float) -> None:
         self.bone_guard(positions, velocity, fraction)

@@ -5,13 +5,23 @@ movements"; this guard covers those too).
 Every guarded node remembers the closest point on its bone and that bone's outward normal there, both in
 the bone's own frame. After each substep a node that has sunk below the tangent plane (minus a clearance)
 is projected back onto it and loses its inward velocity. Branch-free and vectorised: a dot product, a
-``maximum`` and two multiply-adds per node.
+``maximum`` and two multiply-adds per node (numpy, the reference), or the same per node in one compiled
+loop (:mod:`.kernel`, when numba is importable).
 """
 from __future__ import annotations
 
 import numpy as np
 
+from . import kernel
+
 __all__ = ["BoneHalfSpaceGuard", "SphereGuard"]
+
+
+def _compiled_guards(backend: str):
+    """The compiled guard loops for ``backend`` (see the classes' ``backend``), or ``None``."""
+    if backend == "numba" or (backend == "auto" and kernel.loaded()):
+        return kernel.guard_kernels()
+    return None
 
 
 class BoneHalfSpaceGuard:
@@ -22,6 +32,10 @@ class BoneHalfSpaceGuard:
     With :meth:`attach_bone_surfaces`, :meth:`refresh` re-anchors the plane of every node that has slid
     along the bone since its plane was last chosen (incremental: a resting face costs nothing).
     """
+
+    #: "auto" (the compiled loop of .kernel once the network's integrator loaded it), "numba" (it whenever
+    #: numba is importable) or "numpy" (the reference path)
+    backend = "auto"
 
     def __init__(self, nodes: np.ndarray, point: np.ndarray, normal: np.ndarray, bone: np.ndarray,
                  clearance: np.ndarray | float) -> None:
@@ -218,6 +232,13 @@ class BoneHalfSpaceGuard:
         """Project escaped nodes back outside and remove their inward velocity (in place, (3, N))."""
         nodes = self.nodes
         start = getattr(self, "_start", None)
+        compiled = _compiled_guards(self.backend)
+        if compiled is not None and positions.flags.c_contiguous and velocity.flags.c_contiguous:
+            interpolate = not (start is None or fraction >= 1.0)
+            start_point, start_normal = start if interpolate else (self.point, self.normal)
+            compiled[0](positions, velocity, nodes, self.point, self.normal, start_point, start_normal,
+                        interpolate, float(fraction), self.clearance)
+            return
         if start is None or fraction >= 1.0:
             point, normal = self.point, self.normal
         else:
@@ -243,7 +264,14 @@ class SphereGuard:
         self.centre = np.asarray(centre, np.float64).reshape(3, 1)
         self.radius = float(radius)
 
+    #: "auto", "numba" or "numpy", as for :class:`BoneHalfSpaceGuard`
+    backend = "auto"
+
     def __call__(self, positions: np.ndarray, velocity: np.ndarray, fraction: float = 1.0) -> None:
+        compiled = _compiled_guards(self.backend)
+        if compiled is not None and positions.flags.c_contiguous:
+            compiled[1](positions, self.nodes, self.centre[:, 0], self.radius)
+            return
         x = positions[:, self.nodes]
         d = x - self.centre
         dist = np.sqrt(np.einsum("ij,ij->j", d, d))

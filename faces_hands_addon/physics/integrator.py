@@ -18,6 +18,10 @@ stiff settings), the integrator scales all masses up for that frame instead (mas
 equilibrium, reached more slowly), so every parameter value the UI allows gives a finite, non-growing
 simulation at a bounded cost. A last check after every frame restores the previous state if anything
 became non-finite anyway.
+
+The substeps run in the fused numba kernel of :mod:`.kernel` when numba is importable and the network is
+large enough to pay for loading it (``backend`` ``"auto"``, the default; ``"numba"`` whatever the size); the
+numpy code here is the reference and the fallback (``backend = "numpy"``).
 """
 from __future__ import annotations
 
@@ -27,6 +31,7 @@ from typing import Callable
 import numpy as np
 
 from ..core.errors import UserError
+from . import kernel
 from .springs import SpringNetwork
 
 __all__ = ["gershgorin_eigen_bound", "stable_time_step", "LeapfrogIntegrator"]
@@ -120,6 +125,9 @@ class LeapfrogIntegrator:
         self._inverse_mass = self._free / network.masses
         self._accel = np.empty_like(network.positions)
         self._factor_cache = None
+        #: "auto" (the fused kernel of .kernel for networks where it pays), "numba" (it whenever numba is
+        #: importable) or "numpy" (the reference path)
+        self.backend = "auto"
         self.refresh()
 
     def refresh(self) -> None:
@@ -127,6 +135,7 @@ class LeapfrogIntegrator:
         self._factor_cache = None
         self._free = (~self.network.kinematic).astype(np.float64)
         self._inverse_mass = self._free / self.network.masses
+        self._no_index = np.zeros(0, np.int64)
         self.max_substep = stable_time_step(self.network, self.damping, self.safety)
         free = ~self.network.kinematic
         self._eigen = float(np.max(gershgorin_eigen_bound(self.network)[free])) if np.any(free) else 0.0
@@ -216,7 +225,14 @@ class LeapfrogIntegrator:
         kin = net.kinematic
         start_driven = net.positions[:, kin].copy() if driven is not None else None
         every = max(1, int(constraint_every))
-        for index in range(1, substeps + 1):
+        compiled = self._kernel()
+        if compiled is not None and net.zero_rest_attachments:
+            self._advance_fused(compiled, dt, substeps, fast, start_pull if fast else None,
+                                delta_pull if fast else None, driven, start_driven, constraint, every)
+            substeps_done = True
+        else:
+            substeps_done = False
+        for index in range(1, 0 if substeps_done else substeps + 1):
             fraction = index / substeps
             if fast:
                 np.multiply(delta_pull, fraction, out=net.attachment_pull)
@@ -236,6 +252,50 @@ class LeapfrogIntegrator:
             self.velocity[...] = 0.0
             self.started = False
         return substeps
+
+    def _kernel(self):
+        """The fused numba kernel (:mod:`.kernel`) if this integrator may use it, else ``None``."""
+        if self.backend == "numpy":
+            return None
+        if self.backend == "auto" and not kernel.pays_for(self.network.positions.shape[1]):
+            return None
+        return kernel.substep_kernel()
+
+    def _advance_fused(self, compiled, dt: float, substeps: int, fast: bool, start_pull, delta_pull,
+                       driven, start_driven, constraint, every: int) -> None:
+        """The substeps of :meth:`advance` in the fused kernel, in runs between two guard calls."""
+        net = self.network
+        sp = net.springs
+        att = net.attachments
+        empty3 = np.zeros((3, 0))
+        if fast:
+            start_pull = np.ascontiguousarray(start_pull)
+            delta_pull = np.ascontiguousarray(delta_pull)
+        else:
+            start_pull = delta_pull = empty3
+        if driven is not None:
+            kin_index = np.flatnonzero(net.kinematic).astype(np.int64)      # as the numpy path reads them
+            delta_driven = np.ascontiguousarray(np.asarray(driven, np.float64)[:, kin_index] - start_driven)
+            start_driven = np.ascontiguousarray(start_driven)
+        else:
+            kin_index, start_driven, delta_driven = self._no_index, empty3, empty3
+        index = 1
+        while index <= substeps:
+            run_end = min(substeps, ((index - 1) // every + 1) * every) if constraint is not None else substeps
+            if not self.started:
+                run_end = index                      # the Euler start has its own factors
+            inverse_mass, decay, kick = self._factors(dt)
+            self.started = True
+            compiled(net.positions, self.velocity, net.force, sp.start, sp.end, sp.rest, sp.k_soft, net._knee,
+                     net._k_extra, net._k_yield, net._has_yield, net._min_length, att.node, net._att_two_c,
+                     net.attachment_pull, start_pull, delta_pull, fast, kin_index, start_driven,
+                     delta_driven, driven is not None, inverse_mass, decay, kick, self._free, dt, index,
+                     run_end - index + 1, substeps)
+            for _ in range(run_end - index + 1):
+                self.time += dt
+            if constraint is not None and (run_end % every == 0 or run_end == substeps):
+                constraint(net.positions, self.velocity, run_end / substeps)
+            index = run_end + 1
 
     def kinetic_energy(self) -> float:
         masses = self.network.masses * self.mass_scale

@@ -16,6 +16,7 @@ import numpy as np
 
 from ...faces_hands_addon.anim import baking, semantic, weights
 from ...faces_hands_addon.core.errors import UserError
+from ...faces_hands_addon.physics import kernel
 from . import controls, shape_keys
 from .jobs import Job
 from .paths import shape_cache
@@ -97,6 +98,7 @@ class BakeJob(Job):
         else:
             table = animated_table(obj, context.scene, specs, MAX_FRAMES)
             self.total, self.label = len(table), f"Baking {len(table)} frames"
+            kernel.expect_frames(len(table))
             dt = frame_duration(context.scene)
             table = cache_table(obj, context.scene, specs, table, expressions or {}, dt)
             self.generator = baking.animation_poses(self.rig, table, dt)
@@ -142,6 +144,7 @@ class WeightsBakeJob(Job):
         self.count = len(targets) + (len(specs) if correctives else 0)
         self.total = self.count + len(self.table)
         self.label = f"Baking {len(self.table)} frames as weights of {self.count} targets"
+        kernel.expect_frames(len(self.table))
         cache = shape_cache()
         shapes = baking.expression_shapes(self.rig, targets, cache=cache)
         self.targets = itertools.chain(shapes, baking.basis_shapes(self.rig, cache=shape_cache())) if correctives else shapes

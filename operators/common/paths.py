@@ -12,6 +12,7 @@ import bpy
 
 from ...faces_hands_addon.anim.shape_cache import ShapeCache
 from ...faces_hands_addon.core import presets
+from ...faces_hands_addon.physics import kernel
 
 __all__ = ["user_preset_folder", "preset_folder", "preferences", "output_folder", "default_voice",
            "configure_presets", "copy_presets", "shape_cache", "shape_cache_summary", "clear_shape_cache"]
@@ -61,7 +62,7 @@ def default_voice() -> str:
 def configure_presets(package: str | None) -> None:
     """Point the engine's preset resolver at the preset folder of ``package`` (at registration and when the
     preference changes), or back at the shipped presets only (``None``, at unregistration); the same for
-    the shape cache."""
+    the shape cache and the compiled simulation kernel (numba cache)."""
     _PACKAGE[0] = package
     presets.set_user_folder(preset_folder(package) if package else None)
     folder = None
@@ -71,6 +72,9 @@ def configure_presets(package: str | None) -> None:
         except (ValueError, RuntimeError, TypeError):
             folder = None
     _CACHE_FOLDER[0] = folder
+    # numba's compiled kernel lives beside the shape cache, never in the installed extension's folder
+    kernel.set_cache_folder(folder.parent / "numba" if folder is not None else None)
+    kernel.set_interactive(package is not None and not bpy.app.background)
 
 
 def shape_cache() -> ShapeCache:

@@ -131,11 +131,22 @@ def update_muscle_display(obj, rig) -> None:
     part = parts(obj).get("muscles")
     if part is None:
         return
-    vertices, _edges, contraction = muscle_display_arrays(rig)
-    if len(vertices) == len(part.data.vertices):
-        part.data.vertices.foreach_set("co", vertices.astype(np.float32).ravel())
+    fibres = rig.muscle_fibres()
+    lines = [line for _name, line, _value in fibres]
+    if not lines or sum(len(line) for line in lines) != len(part.data.vertices):
+        return
+    part.data.vertices.foreach_set("co", np.concatenate(lines).astype(np.float32, copy=False).ravel())
+    values = np.array([value for _name, _line, value in fibres], np.float32)
+    key = (part.session_uid, part.data.as_pointer())
+    if not np.array_equal(_SHOWN_CONTRACTION.get(key), values):     # colours only when a muscle changed
+        contraction = np.repeat(values, [len(line) for line in lines])
         part.data.color_attributes["contraction"].data.foreach_set("color", _contraction_colours(contraction).ravel())
-        part.data.update()
+        _SHOWN_CONTRACTION[key] = values
+    part.data.update()
+
+
+#: (muscle display object, its mesh) -> the contractions its colours show (the live tick skips unchanged ones)
+_SHOWN_CONTRACTION: dict[tuple[int, int], np.ndarray] = {}
 
 
 def set_wrinkle_drivers(obj, rig) -> None:

@@ -1,0 +1,143 @@
+"""The fused numba kernel (physics/kernel.py) against the numpy reference path of the integrator (thesis
+3.1.2 "Mass Spring Network"): same network, same frames, positions agree to 1e-9 m."""
+import importlib.util
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from faces_hands_addon.physics import Attachments, LeapfrogIntegrator, SpringNetwork, SpringSet, kernel
+
+pytestmark = pytest.mark.skipif(importlib.util.find_spec("numba") is None,
+                                reason="numba is not importable here (the numpy path is the only one)")
+
+TOLERANCE_M = 1e-9
+
+
+def grid(n=16, spacing=0.01, k_soft=20.0, ratio=4.0, threshold=0.1, attach=0.5):
+    """A sheet with biphasic edge and diagonal springs and zero-rest attachment pairs (as the face)."""
+    xs, zs = np.meshgrid(np.arange(n), np.arange(n))
+    positions = np.stack([xs.ravel() * spacing, np.zeros(n * n), zs.ravel() * spacing], 1)
+    index = np.arange(n * n).reshape(n, n)
+    edges = np.concatenate([np.stack([index[:, :-1].ravel(), index[:, 1:].ravel()], 1),
+                            np.stack([index[:-1, :].ravel(), index[1:, :].ravel()], 1),
+                            np.stack([index[:-1, :-1].ravel(), index[1:, 1:].ravel()], 1)])
+    rest = np.linalg.norm(positions[edges[:, 1]] - positions[edges[:, 0]], axis=1) * 0.97
+    springs = SpringSet(edges[:, 0], edges[:, 1], rest, k_soft, k_soft * ratio, threshold, k_soft * 0.5)
+    depth = np.array([[0.0], [0.004], [0.0]])
+    attachments = Attachments(np.arange(n * n), attach, 0.0, positions.T + depth, positions.T - depth)
+    return SpringNetwork(positions, 1e-3, springs, attachments)
+
+
+def _drive(backend, kinematic=0, every=4, frames=30):
+    net = grid(n=16)
+    net.kinematic[:kinematic] = True
+    integrator = LeapfrogIntegrator(net, 0.02)
+    integrator.backend = backend
+    att = net.attachments
+    anchor0, mirror0 = att.anchor.copy(), att.mirror.copy()
+    calls = []
+    for frame in range(frames):
+        offset = np.array([[0.002 * np.cos(frame / 5)], [0.003 * np.sin(frame / 3)], [0.001]])
+        driven = net.positions.copy()
+        driven[1, :kinematic] += 0.0005 * frame
+        used = integrator.advance(1 / 24, anchor=anchor0 + offset, mirror=mirror0 + offset,
+                                  driven=driven if kinematic else None,
+                                  constraint=lambda x, v, fraction: calls.append(fraction), constraint_every=every)
+        calls.append(("frame", used))
+    return net.positions.copy(), integrator.velocity.copy(), integrator.time, calls
+
+
+@pytest.mark.parametrize("kinematic, every", [(0, 4), (5, 1), (5, 3)])
+def test_fused_kernel_matches_numpy_reference(kinematic, every):
+    assert kernel.available(), kernel._STATE["error"]
+    ref = _drive("numpy", kinematic, every)
+    fused = _drive("numba", kinematic, every)
+    assert np.abs(ref[0] - fused[0]).max() < TOLERANCE_M
+    assert np.abs(ref[1] - fused[1]).max() < 1e-6           # m/s
+    assert ref[2] == pytest.approx(fused[2], abs=1e-12)
+    assert ref[3] == fused[3]                                # the guard runs at the same fractions
+
+
+def test_fused_kernel_matches_on_the_default_face():
+    from faces_hands_addon.face.rig import build_default_rig
+    rig = build_default_rig("default")
+    results = []
+    for backend in ("numpy", "numba"):
+        rig.reset_state()
+        rig.reset_controls()
+        rig.face.set_backend(backend)
+        rig.set_controls({"jaw_open": 0.6, "zygomaticus_major_L": 0.8, "orbicularis_oris_protrusion": 0.5})
+        for _ in range(12):
+            rig.step_frame(1 / 24)
+        results.append(rig.face.network.positions.copy())
+    assert np.abs(results[0] - results[1]).max() < TOLERANCE_M
+
+
+def test_kernel_switch(monkeypatch):
+    monkeypatch.setenv(kernel.ENV_VARIABLE, "numpy")
+    assert kernel.substep_kernel() is None and kernel.guard_kernels() is None   # the reference, on request
+    monkeypatch.delenv(kernel.ENV_VARIABLE)
+    assert kernel.substep_kernel() is not None
+    assert kernel.compile_seconds() is not None and kernel.compile_seconds() > 0
+
+
+def test_compiled_code_is_cached_in_the_given_folder_only(tmp_path):
+    """numba's cache goes to the folder the add-on names (its user folder), never beside the sources."""
+    package = Path(kernel.__file__).parent
+    before = set(package.rglob("*.nbi")) | set(package.rglob("*.nbc"))
+    script = ("import sys; from faces_hands_addon.physics import kernel; "
+              f"kernel.set_cache_folder({str(tmp_path / 'numba')!r}); "
+              "sys.exit(0 if kernel.substep_kernel() is not None else 1)")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
+    env.pop("NUMBA_CACHE_DIR", None)
+    subprocess.run([sys.executable, "-c", script], check=True, env=env, timeout=600)
+    assert list((tmp_path / "numba").rglob("*.nbi")) and list((tmp_path / "numba").rglob("*.nbc"))
+    assert set(package.rglob("*.nbi")) | set(package.rglob("*.nbc")) == before
+
+
+@pytest.mark.parametrize("fraction", [0.25, 1.0])
+def test_compiled_guards_match_numpy(fraction):
+    from faces_hands_addon.physics import BoneHalfSpaceGuard, SphereGuard
+    rng = np.random.default_rng(7)
+    nodes = np.sort(rng.choice(400, 150, replace=False))
+    point, normal = rng.normal(size=(3, 150)) * 0.01, rng.normal(size=(3, 150))
+    outcome = []
+    for backend in ("numpy", "numba"):
+        x, v = np.random.default_rng(3).normal(size=(3, 400)) * 0.01, np.random.default_rng(4).normal(size=(3, 400))
+        guard = BoneHalfSpaceGuard(nodes, point, normal, np.zeros(150, np.int64), 0.002)
+        guard.backend = backend
+        guard.set_bone_transforms([np.eye(4)])
+        guard.begin_frame()
+        moved = np.eye(4)
+        moved[:3, 3] = [0.001, -0.002, 0.003]
+        guard.set_bone_transforms([moved])
+        guard(x, v, fraction)
+        eye = SphereGuard(nodes[::2], [0.001, 0.0, -0.002], 0.008)
+        eye.backend = backend
+        eye(x, v, fraction)
+        outcome.append((x, v))
+    assert np.abs(outcome[0][0] - outcome[1][0]).max() < TOLERANCE_M
+    assert np.abs(outcome[0][1] - outcome[1][1]).max() < 1e-9
+    assert np.abs(outcome[0][0] - np.random.default_rng(3).normal(size=(3, 400)) * 0.01).max() > 1e-4  # guards acted
+
+
+def test_auto_backend_loads_numba_only_where_it_pays():
+    """A short bake of the default head stays on numpy (no ~2 s numba load per command); a big network,
+    a long announced bake or an interactive session use the kernel (physics/kernel.py, "Where it pays")."""
+    script = (
+        "import sys; from faces_hands_addon.physics import kernel as k; "
+        "from faces_hands_addon.face.rig import build_default_rig; "
+        "rig = build_default_rig('default'); rig.set_controls({'jaw_open': 0.5}); "
+        "k.expect_frames(60); rig.step_frame(1 / 24); small = k.loaded(); "
+        "nodes = rig.face.network.positions.shape[1]; "
+        "decisions = (k.pays_for(nodes), k.pays_for(k.AUTO_MIN_NODES)); "
+        "k.expect_frames(900); long = k.pays_for(nodes); k.expect_frames(0); k.set_interactive(True); "
+        "live = k.pays_for(nodes); "
+        "sys.exit(0 if (small, decisions, long, live) == (False, (False, True), True, True) else 1)")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
+    env.pop(kernel.ENV_VARIABLE, None)
+    subprocess.run([sys.executable, "-c", script], check=True, env=env, timeout=600)
