@@ -10,6 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .organs import cornea_bulge
+
 __all__ = ["JawLimits", "rotation", "jaw_matrix", "opening_glide", "eye_matrix", "tongue_matrix", "LidRig", "EYE_YAW_DEG",
            "EYE_PITCH_DEG"]
 
@@ -130,6 +132,7 @@ class LidRig:
         weight (0 off the face of a fitted head)."""
         self.centre = np.asarray(centre, np.float64)
         self.clear_radius = eyeball_radius + 0.0005
+        self.eyeball_radius = eyeball_radius
         nodes = np.asarray(nodes, np.float64)
         self.surface = np.ones(len(nodes), bool) if surface is None else np.asarray(surface, bool)
         up, low = np.asarray(upper_margin, np.float64), np.asarray(lower_margin, np.float64)
@@ -196,7 +199,9 @@ class LidRig:
         # the canonical (flat) lid puts inside the sphere, in proportion to how far they have turned
         moved = out[index] - self.centre
         radius = np.linalg.norm(moved, axis=1)
-        lift = np.clip(np.abs(angle) / 0.15, 0.0, 1.0) * self.surface[index]
-        new_radius = radius + lift * np.maximum(self.clear_radius - radius, 0.0)
+        lift = np.clip(np.abs(angle) / 0.06, 0.0, 1.0) * self.surface[index]
+        ahead = np.degrees(np.arccos(np.clip(-moved[:, 1] / np.maximum(radius, 1e-12), -1.0, 1.0)))
+        clear = self.clear_radius + self.eyeball_radius * cornea_bulge(ahead)    # over the cornea too
+        new_radius = radius + lift * np.maximum(clear - radius, 0.0)
         out[index] = self.centre + moved * (new_radius / np.maximum(radius, 1e-12))[:, None]
         return out

@@ -37,6 +37,7 @@ from ..physics import (Attachments, BoneHalfSpaceGuard, LeapfrogIntegrator, Sphe
                        SpringSet)
 from ..core import geometry
 from .attachment import BoneSurface
+from .organs import cornea_bulge
 from .template import HeadTemplate
 
 __all__ = ["SkinMaterial", "MATERIAL_RANGES", "FaceNetwork", "build_network"]
@@ -201,15 +202,25 @@ def _teeth_guard(template: HeadTemplate) -> BoneHalfSpaceGuard:
     return guard
 
 
+def _cornea(eye_radius: float):
+    """The cornea's bulge (m) in unit directions (3, K) from the eye centre, looking ahead (-Y): what a
+    closing lid must pass over (:func:`.organs.cornea_bulge`)."""
+    def extra(unit: np.ndarray) -> np.ndarray:
+        return eye_radius * cornea_bulge(np.degrees(np.arccos(np.clip(-unit[1], -1.0, 1.0))))
+    return extra
+
+
 def _eye_guards(template: HeadTemplate) -> list[SphereGuard]:
-    """Lids stay off the eyeballs."""
+    """Lids stay off the eyeballs and their corneas."""
     skin, organs = template.skin, template.organs
     guards = []
     for side, lid in organs.lids.items():
-        idx = lid.index[skin.group("surface")[lid.index]]
+        near = np.linalg.norm(skin.vertices - organs.eye_centres[side], axis=1) < organs.eye_radius + 0.004
+        idx = np.union1d(lid.index, np.flatnonzero(near))          # lid skin, and skin the lid pulls over
+        idx = idx[skin.group("surface")[idx]]
         radius = organs.eye_radius + 0.0003
-        idx = idx[np.linalg.norm(skin.vertices[idx] - organs.eye_centres[side], axis=1) >= radius]
-        guards.append(SphereGuard(idx, organs.eye_centres[side], radius))
+        guards.append(SphereGuard(idx, organs.eye_centres[side], radius, extra=_cornea(organs.eye_radius),
+                                  rest=skin.vertices[idx].T))
     return guards
 
 
