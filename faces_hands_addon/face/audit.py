@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Measured shape audit of a face rig (issue 10): settle a named expression (ARKit, viseme, emotion) and
+"""Measured shape audit of a face rig: settle a named expression (ARKit, viseme, emotion) and
 measure it in millimetres in head space (metres, Z up, face along -Y, +X = the character's left), on the
 simulation nodes, so the default head and a rig fitted to an artist's mesh are measured the same way.
 

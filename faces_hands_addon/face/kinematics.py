@@ -122,6 +122,7 @@ class LidRig:
     """
     MEETING = 0.25                  # fraction of the fissure the lower lid travels when closing
     FOLLOW_UPPER, FOLLOW_LOWER = 0.7, 0.4
+    RAISE = 0.16                    # rad the levator lifts the upper margin (~2 mm on the eyeball, AU5)
 
     def __init__(self, centre: np.ndarray, nodes: np.ndarray, upper_margin: np.ndarray,
                  lower_margin: np.ndarray, falloff_upper: float = 0.009, falloff_lower: float = 0.006,
@@ -172,11 +173,12 @@ class LidRig:
         order = np.argsort(margin[:, 0], kind="stable")
         return margin[order, 0], _elevation(margin[order], self.centre)
 
-    def rotations(self, close: float, pitch: float) -> np.ndarray:
-        """Rotation angle (radians, + = up) of every node for lid closure ``close`` and gaze ``pitch``."""
+    def rotations(self, close: float, pitch: float, lift: float = 0.0) -> np.ndarray:
+        """Rotation angle (radians, + = up) of every node for lid closure ``close``, gaze ``pitch`` and
+        upper-lid raise ``lift`` (levator palpebrae superioris, FACS AU5: :data:`RAISE` at 1)."""
         close = float(np.clip(close, 0.0, 1.0))
         gaze = np.radians(EYE_PITCH_DEG) * float(np.clip(pitch, -1.0, 1.0))
-        upper = self.theta_u + self.FOLLOW_UPPER * gaze
+        upper = self.theta_u + self.FOLLOW_UPPER * gaze + self.RAISE * float(np.clip(lift, 0.0, 1.0))
         lower = self.theta_l + self.FOLLOW_LOWER * gaze
         aperture = np.maximum(upper - lower, 0.0)
         meeting = lower + self.MEETING * aperture
@@ -185,10 +187,10 @@ class LidRig:
         delta = np.where(self.is_upper, upper_final - self.theta_u, lower_final - self.theta_l)
         return self.weight * delta
 
-    def rotate(self, rest: np.ndarray, close: float, pitch: float) -> np.ndarray:
+    def rotate(self, rest: np.ndarray, close: float, pitch: float, lift: float = 0.0) -> np.ndarray:
         """Rest positions of all nodes (N,3) rotated by :meth:`rotations` about the eye's X axis."""
         index = self.index
-        angle = self.rotations(close, pitch)[index]
+        angle = self.rotations(close, pitch, lift)[index]
         d = rest[index] - self.centre
         c, s = np.cos(angle), np.sin(angle)
         # elevation +a about X with forward = -Y: (y, z) -> (y cos a + z sin a, z cos a - y sin a)

@@ -192,7 +192,8 @@ class FaceRig:
         jaw = self.jaw_transform()
         target = t.attachment.carried(rest, jaw)
         for side, lid in t.organs.lids.items():
-            rotated = lid.rotate(rest, self.controls[f"eyelid_close_{side}"], self.eye_gaze(side)[1])
+            rotated = lid.rotate(rest, self.controls[f"eyelid_close_{side}"], self.eye_gaze(side)[1],
+                                 self.controls.get(f"eyelid_raise_{side}", 0.0))
             target[lid.index] += rotated[lid.index] - rest[lid.index]
         state = t.muscles.deform(self._contraction_vector(), self.controls["orbicularis_oris_protrusion"], jaw)
         self._muscle_state = state
