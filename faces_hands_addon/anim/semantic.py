@@ -56,7 +56,24 @@ def _layer_offsets(table: LayerTable, specs: Mapping[str, ControlSpec]) -> tuple
     speech = table.values.get(SPEECH_LAYER, zero)
     other = sum((values - (defaults if layer == BASE_LAYER else 0.0)
                  for layer, values in table.values.items() if layer != SPEECH_LAYER), zero)
-    return speech / spans, other / spans
+    return speech / spans, _per_eye_gaze(other / spans, list(table.controls))
+
+
+#: conjugate gaze -> the per-eye controls the ARKit look keys drive (the face rig adds them, ``eye_gaze``)
+CONJUGATE = {"eye_yaw": ("eye_yaw_L", "eye_yaw_R"), "eye_pitch": ("eye_pitch_L", "eye_pitch_R")}
+
+
+def _per_eye_gaze(offsets: np.ndarray, controls: list[str]) -> np.ndarray:
+    """Offsets with the conjugate gaze moved onto each eye's own control (same range), so that one look
+    key per eye explains it (eyeLookOutLeft + eyeLookInRight for a glance to the character's left)."""
+    out = offsets.copy()
+    for both, (left, right) in CONJUGATE.items():
+        if both in controls and left in controls and right in controls:
+            column = out[:, controls.index(both)].copy()
+            out[:, controls.index(left)] += column
+            out[:, controls.index(right)] += column
+            out[:, controls.index(both)] = 0.0
+    return out
 
 
 def _fit(matrix: np.ndarray, frames: np.ndarray) -> np.ndarray:

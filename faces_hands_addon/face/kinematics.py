@@ -10,6 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .organs import cornea_bulge
+
 __all__ = ["JawLimits", "rotation", "jaw_matrix", "opening_glide", "eye_matrix", "tongue_matrix", "LidRig", "EYE_YAW_DEG",
            "EYE_PITCH_DEG"]
 
@@ -120,6 +122,7 @@ class LidRig:
     """
     MEETING = 0.25                  # fraction of the fissure the lower lid travels when closing
     FOLLOW_UPPER, FOLLOW_LOWER = 0.7, 0.4
+    RAISE = 0.16                    # rad the levator lifts the upper margin (~2 mm on the eyeball, AU5)
 
     def __init__(self, centre: np.ndarray, nodes: np.ndarray, upper_margin: np.ndarray,
                  lower_margin: np.ndarray, falloff_upper: float = 0.009, falloff_lower: float = 0.006,
@@ -130,6 +133,7 @@ class LidRig:
         weight (0 off the face of a fitted head)."""
         self.centre = np.asarray(centre, np.float64)
         self.clear_radius = eyeball_radius + 0.0005
+        self.eyeball_radius = eyeball_radius
         nodes = np.asarray(nodes, np.float64)
         self.surface = np.ones(len(nodes), bool) if surface is None else np.asarray(surface, bool)
         up, low = np.asarray(upper_margin, np.float64), np.asarray(lower_margin, np.float64)
@@ -169,11 +173,12 @@ class LidRig:
         order = np.argsort(margin[:, 0], kind="stable")
         return margin[order, 0], _elevation(margin[order], self.centre)
 
-    def rotations(self, close: float, pitch: float) -> np.ndarray:
-        """Rotation angle (radians, + = up) of every node for lid closure ``close`` and gaze ``pitch``."""
+    def rotations(self, close: float, pitch: float, lift: float = 0.0) -> np.ndarray:
+        """Rotation angle (radians, + = up) of every node for lid closure ``close``, gaze ``pitch`` and
+        upper-lid raise ``lift`` (levator palpebrae superioris, FACS AU5: :data:`RAISE` at 1)."""
         close = float(np.clip(close, 0.0, 1.0))
         gaze = np.radians(EYE_PITCH_DEG) * float(np.clip(pitch, -1.0, 1.0))
-        upper = self.theta_u + self.FOLLOW_UPPER * gaze
+        upper = self.theta_u + self.FOLLOW_UPPER * gaze + self.RAISE * float(np.clip(lift, 0.0, 1.0))
         lower = self.theta_l + self.FOLLOW_LOWER * gaze
         aperture = np.maximum(upper - lower, 0.0)
         meeting = lower + self.MEETING * aperture
@@ -182,10 +187,10 @@ class LidRig:
         delta = np.where(self.is_upper, upper_final - self.theta_u, lower_final - self.theta_l)
         return self.weight * delta
 
-    def rotate(self, rest: np.ndarray, close: float, pitch: float) -> np.ndarray:
+    def rotate(self, rest: np.ndarray, close: float, pitch: float, lift: float = 0.0) -> np.ndarray:
         """Rest positions of all nodes (N,3) rotated by :meth:`rotations` about the eye's X axis."""
         index = self.index
-        angle = self.rotations(close, pitch)[index]
+        angle = self.rotations(close, pitch, lift)[index]
         d = rest[index] - self.centre
         c, s = np.cos(angle), np.sin(angle)
         # elevation +a about X with forward = -Y: (y, z) -> (y cos a + z sin a, z cos a - y sin a)
@@ -196,7 +201,9 @@ class LidRig:
         # the canonical (flat) lid puts inside the sphere, in proportion to how far they have turned
         moved = out[index] - self.centre
         radius = np.linalg.norm(moved, axis=1)
-        lift = np.clip(np.abs(angle) / 0.15, 0.0, 1.0) * self.surface[index]
-        new_radius = radius + lift * np.maximum(self.clear_radius - radius, 0.0)
+        lift = np.clip(np.abs(angle) / 0.06, 0.0, 1.0) * self.surface[index]
+        ahead = np.degrees(np.arccos(np.clip(-moved[:, 1] / np.maximum(radius, 1e-12), -1.0, 1.0)))
+        clear = self.clear_radius + self.eyeball_radius * cornea_bulge(ahead)    # over the cornea too
+        new_radius = radius + lift * np.maximum(clear - radius, 0.0)
         out[index] = self.centre + moved * (new_radius / np.maximum(radius, 1e-12))[:, None]
         return out

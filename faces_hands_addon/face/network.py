@@ -38,6 +38,7 @@ from ..physics import (Attachments, BoneHalfSpaceGuard, LeapfrogIntegrator, Sphe
 from ..core import geometry
 from ..physics import kernel
 from .attachment import BoneSurface
+from .organs import cornea_bulge
 from .template import HeadTemplate
 
 __all__ = ["SkinMaterial", "MATERIAL_RANGES", "FaceNetwork", "build_network"]
@@ -212,15 +213,39 @@ def _teeth_guard(template: HeadTemplate) -> BoneHalfSpaceGuard:
     return guard
 
 
+def _cornea(eye_radius: float, sag: np.ndarray | float = 0.0):
+    """The cornea's bulge (m) in unit directions (3, K) from the eye centre, looking ahead (-Y): what a
+    closing lid must pass over (:func:`.organs.cornea_bulge`), plus each guarded node's ``sag`` (the
+    depth a skin triangle's flat middle sinks below its corners on the sphere), so that a coarse lid's
+    triangles, not only its nodes, stay in front of the cornea."""
+    def extra(unit: np.ndarray) -> np.ndarray:
+        return eye_radius * cornea_bulge(np.degrees(np.arccos(np.clip(-unit[1], -1.0, 1.0)))) + sag
+    return extra
+
+
+def _longest_edge(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Per node, its longest incident skin edge (m)."""
+    edges = geometry.unique_edges(faces)
+    length = np.linalg.norm(vertices[edges[:, 0]] - vertices[edges[:, 1]], axis=1)
+    out = np.zeros(len(vertices))
+    np.maximum.at(out, edges[:, 0], length)
+    np.maximum.at(out, edges[:, 1], length)
+    return out
+
+
 def _eye_guards(template: HeadTemplate) -> list[SphereGuard]:
-    """Lids stay off the eyeballs."""
+    """Lids stay off the eyeballs and their corneas."""
     skin, organs = template.skin, template.organs
     guards = []
+    longest = _longest_edge(skin.vertices, skin.faces)
     for side, lid in organs.lids.items():
-        idx = lid.index[skin.group("surface")[lid.index]]
+        near = np.linalg.norm(skin.vertices - organs.eye_centres[side], axis=1) < organs.eye_radius + 0.004
+        idx = np.union1d(lid.index, np.flatnonzero(near))          # lid skin, and skin the lid pulls over
+        idx = idx[skin.group("surface")[idx]]
         radius = organs.eye_radius + 0.0003
-        idx = idx[np.linalg.norm(skin.vertices[idx] - organs.eye_centres[side], axis=1) >= radius]
-        guards.append(SphereGuard(idx, organs.eye_centres[side], radius))
+        sag = longest[idx] ** 2 / (8.0 * organs.eye_radius)            # chord sagitta of the lid's triangles
+        guards.append(SphereGuard(idx, organs.eye_centres[side], radius,
+                                  extra=_cornea(organs.eye_radius, sag), rest=skin.vertices[idx].T))
     return guards
 
 

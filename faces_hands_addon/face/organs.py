@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["PartMesh", "eyeball_mesh", "teeth_meshes", "tongue_mesh", "tongue_in_arch", "lingual_outline",
+__all__ = ["PartMesh", "cornea_bulge", "eyeball_mesh", "teeth_meshes", "tongue_mesh", "tongue_in_arch", "lingual_outline",
            "arch_surface"]
 
 # Mesiodistal crown widths (mm), central incisor to second molar; a typical adult dentition.
@@ -58,12 +58,23 @@ def _uv_sphere(rings: int, segments: int) -> tuple[np.ndarray, np.ndarray]:
     return np.array(verts), np.array(faces, np.int64)
 
 
+CORNEA_BULGE = 0.035      # the cornea stands this fraction of the eyeball radius proud at the gaze axis
+CORNEA_DEG = 32.0         # ... over this angle from the gaze axis
+
+
+def cornea_bulge(angle_deg: np.ndarray) -> np.ndarray:
+    """Extra radius (fraction of the eyeball radius) of the eyeball surface ``angle_deg`` from its gaze
+    axis: the cornea's bulge over the iris, 0 beyond :data:`CORNEA_DEG`."""
+    angle = np.asarray(angle_deg, np.float64)
+    return np.where(angle < CORNEA_DEG, CORNEA_BULGE * np.cos(np.radians(angle) * 90 / CORNEA_DEG) ** 2, 0.0)
+
+
 def eyeball_mesh(centre: np.ndarray, radius: float, name: str, rings: int = 24, segments: int = 32) -> PartMesh:
     """Eyeball looking along -Y with a cornea that bulges a little over the iris; materials by the angle
     from the gaze axis (pupil < 9 deg, iris < 28 deg: an iris ~11.5 mm across on a 12 mm eye)."""
     unit, faces = _uv_sphere(rings, segments)
     angle = np.degrees(np.arccos(np.clip(-unit[:, 1], -1, 1)))
-    bulge = np.where(angle < 32, 0.035 * np.cos(np.radians(angle) * 90 / 32) ** 2, 0.0)
+    bulge = cornea_bulge(angle)
     verts = centre + unit * (radius * (1 + bulge))[:, None]
     face_angle = angle[faces].mean(axis=1)
     material = np.where(face_angle < 9, 2, np.where(face_angle < 28, 1, 0))

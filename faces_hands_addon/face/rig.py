@@ -165,10 +165,19 @@ class FaceRig:
         jaw = self.jaw_transform()
         out = {"jaw": jaw, "teeth_upper": np.eye(4), "teeth_lower": jaw, "skull": np.eye(4)}
         for side, centre in organs.eye_centres.items():
-            out[f"eye_{side}"] = kinematics.eye_matrix(centre, c["eye_yaw"], c["eye_pitch"])
+            yaw, pitch = self.eye_gaze(side)
+            out[f"eye_{side}"] = kinematics.eye_matrix(centre, yaw, pitch)
         out["tongue"] = kinematics.tongue_matrix(jaw, organs.tongue_pivot, c["tongue_tip_up"], c["tongue_back"],
                                                  c["tongue_out"])
         return out
+
+    def eye_gaze(self, side: str) -> tuple[float, float]:
+        """(yaw, pitch) of one eye in [-1, 1]: the conjugate gaze (``eye_yaw``, ``eye_pitch``, what
+        behaviour drives) plus that eye's own offset (``eye_yaw_L`` ..., what an ARKit look key drives, so
+        eyeLookInLeft turns the left eye only)."""
+        c = self.controls
+        return (float(np.clip(c["eye_yaw"] + c.get(f"eye_yaw_{side}", 0.0), -1.0, 1.0)),
+                float(np.clip(c["eye_pitch"] + c.get(f"eye_pitch_{side}", 0.0), -1.0, 1.0)))
 
     def _contraction_vector(self) -> np.ndarray:
         return np.array([self.controls[name] for name in self.template.muscles.names])
@@ -183,7 +192,8 @@ class FaceRig:
         jaw = self.jaw_transform()
         target = t.attachment.carried(rest, jaw)
         for side, lid in t.organs.lids.items():
-            rotated = lid.rotate(rest, self.controls[f"eyelid_close_{side}"], self.controls["eye_pitch"])
+            rotated = lid.rotate(rest, self.controls[f"eyelid_close_{side}"], self.eye_gaze(side)[1],
+                                 self.controls.get(f"eyelid_raise_{side}", 0.0))
             target[lid.index] += rotated[lid.index] - rest[lid.index]
         state = t.muscles.deform(self._contraction_vector(), self.controls["orbicularis_oris_protrusion"], jaw)
         self._muscle_state = state

@@ -257,12 +257,28 @@ class BoneHalfSpaceGuard:
 
 
 class SphereGuard:
-    """Keeps ``nodes`` at least ``radius`` from ``centre`` (lids over the eyeball, 3.1.2 "Eyes")."""
+    """Keeps ``nodes`` at least ``radius`` from ``centre`` (lids over the eyeball, 3.1.2 "Eyes").
 
-    def __init__(self, nodes: np.ndarray, centre: np.ndarray, radius: float) -> None:
+    ``extra(unit)`` (optional): more radius (m) in the unit directions (3, K) from the centre, e.g. the
+    cornea's bulge; with ``rest`` (3, K) node positions a node that lies inside at rest is let off by what
+    it lacks there, less and less as it moves away from rest (fully guarded ``fade`` m away), so the guard
+    never pushes a node at rest yet a lid that closes over the cornea stays on it."""
+
+    def __init__(self, nodes: np.ndarray, centre: np.ndarray, radius: float, extra=None,
+                 rest: np.ndarray | None = None, fade: float = 0.0015) -> None:
         self.nodes = np.ascontiguousarray(nodes, np.int64)
         self.centre = np.asarray(centre, np.float64).reshape(3, 1)
         self.radius = float(radius)
+        self.extra = extra
+        self.fade = float(fade)
+        self.slack = np.zeros(len(self.nodes))
+        self.rest = None
+        if rest is not None and len(self.nodes):
+            self.rest = np.asarray(rest, np.float64)
+            d = self.rest - self.centre
+            dist = np.sqrt(np.einsum("ij,ij->j", d, d))
+            wanted = self.radius + (extra(d / np.maximum(dist, 1e-12)) if extra is not None else 0.0)
+            self.slack = np.maximum(wanted - dist, 0.0)
 
     #: "auto", "numba" or "numpy", as for :class:`BoneHalfSpaceGuard`
     backend = "auto"
@@ -275,5 +291,11 @@ class SphereGuard:
         x = positions[:, self.nodes]
         d = x - self.centre
         dist = np.sqrt(np.einsum("ij,ij->j", d, d))
-        scale = np.maximum(self.radius / np.maximum(dist, 1e-12), 1.0)
+        radius = self.radius
+        if self.extra is not None:
+            radius = radius + self.extra(d / np.maximum(dist, 1e-12))
+        if self.rest is not None:
+            moved = np.sqrt(np.einsum("ij,ij->j", x - self.rest, x - self.rest))
+            radius = radius - self.slack * np.clip(1.0 - moved / self.fade, 0.0, 1.0)
+        scale = np.maximum(radius / np.maximum(dist, 1e-12), 1.0)
         positions[:, self.nodes] = self.centre + d * scale

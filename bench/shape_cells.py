@@ -1,0 +1,54 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Full-resolution contact-sheet cells of the shapes the audit (``bench/shapes.py``) measures, for looking
+at: neutral, brows up/down, blink, smile, jawOpen and the visemes PP, FF, aa, ou (``--names`` for others),
+front and side, one PNG per view. Runs the installed extension inside the bpy module (``make install``).
+
+Run: ``.venv/bin/python bench/shape_cells.py --out-dir DIR [--size 700x800] [--blend RIG.blend]``.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import _harness  # noqa: E402
+
+import bpy  # noqa: E402
+
+CELLS = ("neutral", "browInnerUp", "browOuterUpLeft", "browDownLeft", "eyeBlinkLeft", "mouthSmileLeft", "jawOpen",
+         "viseme_PP", "viseme_FF", "viseme_aa", "viseme_ou", "eyeLookInLeft")
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out-dir", required=True)
+    parser.add_argument("--size", default="700x800")
+    parser.add_argument("--names", help="comma-separated expression names (default: the audit's picks)")
+    parser.add_argument("--blend", help="a .blend with a face rig (default: the default head)")
+    parser.add_argument("--columns", type=int, default=4)
+    parser.add_argument("--prefix", default="cells")
+    args = parser.parse_args()
+    ext = _harness.EXTENSION
+    services = importlib.import_module(f"{ext.__name__}.operators.face.services")
+    sheet = importlib.import_module(f"{ext.__name__}.operators.face.sheet")
+    expressions = {}
+    for name in ("arkit", "visemes", "named"):
+        expressions.update(services.expressions(name))
+    obj = services.rig_object(args.blend) if args.blend else services.build_default_rig_object()
+    names = args.names.split(",") if args.names else CELLS
+    cells = [(n, {} if n == "neutral" else expressions[n]) for n in names]
+    width, height = (int(v) for v in args.size.split("x"))
+    out = Path(args.out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    for view in ("front", "side"):
+        path = out / f"{args.prefix}_{view}.png"
+        sheet.render_sheet(bpy.context, obj, cells, path, cell_size=(width, height), columns=args.columns,
+                           view=view)
+        print(path)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
