@@ -284,8 +284,8 @@ class SphereGuard:
     backend = "auto"
 
     def __call__(self, positions: np.ndarray, velocity: np.ndarray, fraction: float = 1.0) -> None:
-        compiled = _compiled_guards(self.backend)
-        if compiled is not None and positions.flags.c_contiguous:
+        compiled = _compiled_guards(self.backend) if self.extra is None and self.rest is None else None
+        if compiled is not None and positions.flags.c_contiguous:    # the compiled loop: a plain sphere only
             compiled[1](positions, self.nodes, self.centre[:, 0], self.radius)
             return
         x = positions[:, self.nodes]

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from faces_hands_addon import UserError, emotion  # noqa: F401  (emotion registers its formats)
+from faces_hands_addon.behavior import loudness as behavior_loudness  # noqa: F401  (registers the loudness format)
 from faces_hands_addon.behavior import styles as behavior_styles  # noqa: F401  (registers the behaviour format)
 from faces_hands_addon.core import presets
 from faces_hands_addon.face.expressions import load_expressions
