@@ -34,7 +34,7 @@ from ..core.geometry import vertex_normals
 from .surface import TargetSurface, least_squares
 from .template import FaceTemplate, face_template
 
-__all__ = ["Facing", "FACINGS", "Similarity", "DepthMatch", "search_orientations", "refine_search",
+__all__ = ["Facing", "FACINGS", "COARSE_SCALES", "Similarity", "DepthMatch", "search_orientations", "refine_search",
            "scaled_rigid_icp", "surface_samples"]
 
 
@@ -105,6 +105,7 @@ class DepthMatch:
 
 _COARSE_PIXELS = 64         # depth-image resolution along the target's longer side (orientation search)
 _COARSE_SCALES = np.geomspace(0.16, 1.3, 11)   # template height / target extent tried in the coarse search
+COARSE_SCALES = _COARSE_SCALES
 _FINE_FACE_PIXELS = 60      # the template's inner face spans this many pixels in the fine search
 _FINE_SCALES = np.geomspace(1 / 1.15, 1.15, 5)  # around the coarse scale
 _COARSE_SAMPLES = 60_000
@@ -248,8 +249,10 @@ def _depth_match(facing: Facing, to_view: np.ndarray, found) -> DepthMatch | Non
 
 
 def search_orientations(vertices: np.ndarray, faces: np.ndarray, areas: np.ndarray, template: FaceTemplate,
-                        rng: np.random.Generator, facings=FACINGS) -> list[DepthMatch]:
-    """Coarse depth-image search (whole mesh, all scales) in each orientation hypothesis."""
+                        rng: np.random.Generator, facings=FACINGS, ladder=None,
+                        pixels: int = _COARSE_PIXELS) -> list[DepthMatch]:
+    """Coarse depth-image search (whole mesh, all scales of ``ladder``, template height / target extent,
+    default ``_COARSE_SCALES``) in each orientation hypothesis, ``pixels`` along the longer side."""
     samples = surface_samples(vertices, faces, areas, _COARSE_SAMPLES, rng)
     template_depth = _template_depth()
     matches = []
@@ -257,8 +260,8 @@ def search_orientations(vertices: np.ndarray, faces: np.ndarray, areas: np.ndarr
         to_view = facing.rotation()
         points = _rotated(samples, to_view)
         extent = np.ptp(points[:, [0, 2]], axis=0).max()
-        scales = extent / template_depth.height * _COARSE_SCALES
-        match = _depth_match(facing, to_view, _match_in_view(points, extent / _COARSE_PIXELS, scales,
+        scales = extent / template_depth.height * (_COARSE_SCALES if ladder is None else np.asarray(ladder))
+        match = _depth_match(facing, to_view, _match_in_view(points, extent / pixels, scales,
                                                              template_depth))
         if match is not None:
             matches.append(match)
