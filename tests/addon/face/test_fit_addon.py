@@ -137,7 +137,7 @@ def test_cli_build_face_from_obj(installed, tmp_path, bpy_clean):
     result = run_fh(installed, "build-face", "--mesh", path, "--out", out)
     assert result.returncode == 0, result.stderr[-2000:]
     assert out.exists()
-    turned = run_fh(installed, "build-face", "--mesh", path, "--forward", "-Y", "--out", tmp_path / "y.blend")
+    turned = run_fh(installed, "build-face", "--mesh", path, "--forward=-Y", "--out", tmp_path / "y.blend")
     assert turned.returncode == 1 and "--up" in turned.stderr and not (tmp_path / "y.blend").exists()
     missing = run_fh(installed, "build-face", "--mesh", tmp_path / "nope.obj", "--out", tmp_path / "x.blend")
     assert missing.returncode == 1 and "does not exist" in missing.stderr
