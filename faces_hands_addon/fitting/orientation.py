@@ -7,9 +7,10 @@ artist's file uses. Every proper rotation that maps the world axes onto the cano
 top along +Z) is tried: 6 directions for the face x 4 for the top = 24 hypotheses (the rotation group of
 the cube). Each is scored with the depth-image template match of :mod:`.align` (masked squared depth
 difference to the canonical face's relief, Lewis 1995; ~0.1 a face, ~1 no face-like relief). The best few
-are searched again at face resolution and, when not conclusive, with the small pitch/yaw/roll tilts of
-:data:`.align.FACINGS` composed onto them, so heads tilted between the axes are found too (the scaled rigid
-ICP that follows removes what is left). A mesh mirrored front to back is a proper rotation of its own
+are searched again at face resolution and, when not conclusive, all 24 at full resolution and the best
+three with pitch/yaw/roll tilts of 10-30 degrees composed onto them (those of :data:`.align.FACINGS` and
++-30), so heads tilted between the axes are found too (the scaled rigid ICP that follows removes what is
+left). A mesh mirrored front to back is a proper rotation of its own
 mirror image (a head is near-symmetric), so it is found like any other.
 
 ``forward``/``up`` (e.g. ``"-Y"``, ``"+Z"``) override the search: only that orientation and its tilts.
@@ -21,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.errors import UserError
-from .align import COARSE_SCALES, FACINGS, DepthMatch, Facing, refine_search, search_orientations
+from .align import COARSE_SCALES, FACINGS, DepthMatch, Facing, _tilted_front, refine_search, search_orientations
 
 __all__ = ["AXES", "AXIS_VECTORS", "axis_facing", "ORIENTATIONS", "OrientationChoice", "choose_orientation",
            "orientation_name"]
@@ -57,7 +58,12 @@ def axis_facing(forward: str, up: str) -> Facing:
 
 
 ORIENTATIONS = tuple(axis_facing(f, u) for f in AXES for u in AXES if abs(np.dot(AXIS_VECTORS[f], AXIS_VECTORS[u])) < 0.5)
-_TILTS = tuple(f for f in FACINGS if f.front and f.name != "-Y")   # -Y / Z-up pitched, yawed, rolled
+# -Y / Z-up pitched, yawed (+-15, +-30 degrees) and rolled (+-10, +-30): with the rigid ICP after it, this
+# reaches heads up to ~45 degrees between two axis orientations
+_TILTS = tuple(f for f in FACINGS if f.front and f.name != "-Y") + tuple(
+    _tilted_front(f"-Y {kind} {angle:+d}", axis, angle) for kind, axis in (("pitch", 0), ("yaw", 2), ("roll", 1))
+    for angle in (-30, 30))
+_TILTED = 3                 # coarse winners the tilts are tried on
 
 
 def _tilted(base: Facing, tilt: Facing) -> Facing:
@@ -103,28 +109,38 @@ def choose_orientation(vertices, faces, areas, template, rng, *, forward: str | 
         raise UserError("give both the forward and the up axis of the head (e.g. forward -Y, up +Z), or neither")
     forced = forward is not None
     candidates = (axis_facing(forward, up),) if forced else ORIENTATIONS
+    screened_out = ()
     if len(candidates) > _SCREENED:       # quick screen on every other scale, then the full ladder
         screen = sorted(search_orientations(vertices, faces, areas, template, rng, candidates, COARSE_SCALES[::2],
-                                                    pixels=_SCREEN_PIXELS),
-                        key=lambda m: m.score)
+                                            pixels=_SCREEN_PIXELS), key=lambda m: m.score)
         candidates = tuple(m.facing for m in screen[:_SCREENED])
+        screened_out = tuple(m.facing for m in screen[_SCREENED:])
     coarse = sorted(search_orientations(vertices, faces, areas, template, rng, candidates), key=lambda m: m.score)
     if not coarse:
         raise UserError("could not find a face on the mesh: in no orientation does it cover enough area to "
                         "hold a face; check that it is a head or a face mask")
-    ranking = tuple((orientation_name(m.facing.forward, m.facing.up), round(float(m.score), 4)) for m in coarse)
     refined = [refine_search(vertices, faces, areas, template, m, rng) for m in coarse[:_REFINED]]
     refined.sort(key=lambda m: m.score)
     best = refined[0]
     rivals = [m for m in refined[1:] if _distinct(m.facing, best.facing)]
     if best.score > _CONCLUSIVE or (rivals and rivals[0].score < 1.3 * best.score):
-        tilted = tuple(_tilted(m.facing, t) for m in refined[:2] for t in _TILTS)
+        # not conclusive (a head between the axes, or no face): every orientation at the full ladder, then
+        # tilts of up to 30 degrees about each axis on the best few and on -Y / Z up (the depth match is
+        # sharp: a face pitched 25 degrees scores ~0.6 untilted, ~0.15 with the tilt that undoes it)
+        coarse = sorted(coarse + search_orientations(vertices, faces, areas, template, rng, screened_out),
+                        key=lambda m: m.score)
+        bases = [m.facing for m in coarse[:_TILTED]]
+        default = axis_facing("-Y", "+Z") if not forced else axis_facing(forward, up)
+        if all(_distinct(b, default) for b in bases):
+            bases.append(default)          # Blender's front view: a head tilted from it is the common case
+        tilted = tuple(_tilted(b, t) for b in bases for t in _TILTS)
         more = search_orientations(vertices, faces, areas, template, rng, tilted)
         more = [refine_search(vertices, faces, areas, template, m, rng)
-                for m in sorted(more, key=lambda m: m.score)[:2]]
+                for m in sorted(more, key=lambda m: m.score)[:_REFINED]]
         refined = sorted(refined + more, key=lambda m: m.score)
         best = refined[0]
         rivals = [m for m in refined[1:] if _distinct(m.facing, best.facing)]
+    ranking = tuple((orientation_name(m.facing.forward, m.facing.up), round(float(m.score), 4)) for m in coarse)
     if best.score > _FACE_SCORE_LIMIT:
         where = f"with forward {forward}, up {up}" if forced else "in any of the 24 axis orientations"
         raise UserError(f"could not find a face on the mesh: no nose/eyes/mouth relief {where} (face-match "
