@@ -13,8 +13,8 @@ template must sit on the target's face at roughly the right place and size. Two 
    (normalised cross-correlation in the sense of Lewis, "Fast Normalized Cross-Correlation", 1995).
    Because it compares shape, not "the frontmost point", it finds the face on a full head whose
    chest, hair cap or ears stick out further than the nose, and it tells a head facing -Y from one
-   facing +Y / +-X / lying face-up / upside down (the search is run for each of those orientations,
-   and for -Y pitched, yawed or rolled a little). See-through openings (eyes, mouth of a mesh with a
+   facing +Y / +-X / lying face-up / upside down (:mod:`.orientation` runs it for the 24 axis
+   orientations and tilted variants; ``FACINGS`` below are the tilts and the old named hypotheses). See-through openings (eyes, mouth of a mesh with a
    back of the head behind them) are removed from the depth image by a grey-value opening, so they
    cost like empty background instead of dominating the squared differences.
 2. **Scaled rigid ICP**, point-to-plane (Chen & Medioni 1992, linearised as in Low 2004) with a small
