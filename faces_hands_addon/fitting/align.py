@@ -109,6 +109,7 @@ COARSE_SCALES = _COARSE_SCALES
 _FINE_FACE_PIXELS = 60      # the template's inner face spans this many pixels in the fine search
 _FINE_SCALES = np.geomspace(1 / 1.15, 1.15, 5)  # around the coarse scale
 _COARSE_SAMPLES = 60_000
+COARSE_SAMPLES = _COARSE_SAMPLES
 _FINE_SAMPLES_PER_PIXEL = 12
 _BACKGROUND_PENALTY = 0.5   # cost of a template pixel over empty background, in template-variance units
 _MIN_COVERAGE = 0.55
@@ -250,10 +251,12 @@ def _depth_match(facing: Facing, to_view: np.ndarray, found) -> DepthMatch | Non
 
 def search_orientations(vertices: np.ndarray, faces: np.ndarray, areas: np.ndarray, template: FaceTemplate,
                         rng: np.random.Generator, facings=FACINGS, ladder=None,
-                        pixels: int = _COARSE_PIXELS) -> list[DepthMatch]:
+                        pixels: int = _COARSE_PIXELS, samples: np.ndarray | None = None) -> list[DepthMatch]:
     """Coarse depth-image search (whole mesh, all scales of ``ladder``, template height / target extent,
-    default ``_COARSE_SCALES``) in each orientation hypothesis, ``pixels`` along the longer side."""
-    samples = surface_samples(vertices, faces, areas, _COARSE_SAMPLES, rng)
+    default ``_COARSE_SCALES``) in each orientation hypothesis, ``pixels`` along the longer side; on
+    ``samples`` (surface points) when given, else on ``_COARSE_SAMPLES`` new ones drawn with ``rng``."""
+    if samples is None:
+        samples = surface_samples(vertices, faces, areas, _COARSE_SAMPLES, rng)
     template_depth = _template_depth()
     matches = []
     for facing in facings:

@@ -22,7 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.errors import UserError
-from .align import COARSE_SCALES, FACINGS, DepthMatch, Facing, _tilted_front, refine_search, search_orientations
+from .align import (COARSE_SAMPLES, COARSE_SCALES, FACINGS, DepthMatch, Facing, _tilted_front, refine_search,
+                    search_orientations, surface_samples)
 
 __all__ = ["AXES", "AXIS_VECTORS", "axis_facing", "ORIENTATIONS", "OrientationChoice", "choose_orientation",
            "orientation_name"]
@@ -64,6 +65,7 @@ _TILTS = tuple(f for f in FACINGS if f.front and f.name != "-Y") + tuple(
     _tilted_front(f"-Y {kind} {angle:+d}", axis, angle) for kind, axis in (("pitch", 0), ("yaw", 2), ("roll", 1))
     for angle in (-30, 30))
 _TILTED = 3                 # coarse winners the tilts are tried on
+_AUX_SEED = 0x0F17          # the random stream of the rivals' refinements and the tilts (deterministic)
 
 
 def _tilted(base: Facing, tilt: Facing) -> Facing:
@@ -109,17 +111,24 @@ def choose_orientation(vertices, faces, areas, template, rng, *, forward: str | 
         raise UserError("give both the forward and the up axis of the head (e.g. forward -Y, up +Z), or neither")
     forced = forward is not None
     candidates = (axis_facing(forward, up),) if forced else ORIENTATIONS
+    # One draw of surface samples for every coarse search, and ``rng`` used further only for the winner's
+    # refinement (the rivals' and the tilts' use ``aux``): the caller's random stream, hence the fit after
+    # this, does not depend on how many hypotheses were tried (an upright head is fitted as before).
+    samples = surface_samples(vertices, faces, areas, COARSE_SAMPLES, rng)
+    aux = np.random.default_rng(_AUX_SEED)
     screened_out = ()
     if len(candidates) > _SCREENED:       # quick screen on every other scale, then the full ladder
         screen = sorted(search_orientations(vertices, faces, areas, template, rng, candidates, COARSE_SCALES[::2],
-                                            pixels=_SCREEN_PIXELS), key=lambda m: m.score)
+                                            pixels=_SCREEN_PIXELS, samples=samples), key=lambda m: m.score)
         candidates = tuple(m.facing for m in screen[:_SCREENED])
         screened_out = tuple(m.facing for m in screen[_SCREENED:])
-    coarse = sorted(search_orientations(vertices, faces, areas, template, rng, candidates), key=lambda m: m.score)
+    coarse = sorted(search_orientations(vertices, faces, areas, template, rng, candidates, samples=samples),
+                    key=lambda m: m.score)
     if not coarse:
         raise UserError("could not find a face on the mesh: in no orientation does it cover enough area to "
                         "hold a face; check that it is a head or a face mask")
-    refined = [refine_search(vertices, faces, areas, template, m, rng) for m in coarse[:_REFINED]]
+    refined = [refine_search(vertices, faces, areas, template, m, rng if i == 0 else aux)
+               for i, m in enumerate(coarse[:_REFINED])]
     refined.sort(key=lambda m: m.score)
     best = refined[0]
     rivals = [m for m in refined[1:] if _distinct(m.facing, best.facing)]
@@ -127,15 +136,15 @@ def choose_orientation(vertices, faces, areas, template, rng, *, forward: str | 
         # not conclusive (a head between the axes, or no face): every orientation at the full ladder, then
         # tilts of up to 30 degrees about each axis on the best few and on -Y / Z up (the depth match is
         # sharp: a face pitched 25 degrees scores ~0.6 untilted, ~0.15 with the tilt that undoes it)
-        coarse = sorted(coarse + search_orientations(vertices, faces, areas, template, rng, screened_out),
-                        key=lambda m: m.score)
+        coarse = sorted(coarse + search_orientations(vertices, faces, areas, template, aux, screened_out,
+                                                     samples=samples), key=lambda m: m.score)
         bases = [m.facing for m in coarse[:_TILTED]]
         default = axis_facing("-Y", "+Z") if not forced else axis_facing(forward, up)
         if all(_distinct(b, default) for b in bases):
             bases.append(default)          # Blender's front view: a head tilted from it is the common case
         tilted = tuple(_tilted(b, t) for b in bases for t in _TILTS)
-        more = search_orientations(vertices, faces, areas, template, rng, tilted)
-        more = [refine_search(vertices, faces, areas, template, m, rng)
+        more = search_orientations(vertices, faces, areas, template, aux, tilted, samples=samples)
+        more = [refine_search(vertices, faces, areas, template, m, aux)
                 for m in sorted(more, key=lambda m: m.score)[:_REFINED]]
         refined = sorted(refined + more, key=lambda m: m.score)
         best = refined[0]
