@@ -121,8 +121,9 @@ class FittedHead:
 
 
 def fit_head(vertices, faces, landmarks=None, *, seed: int = 0, progress=None, resolution: str = "default",
-             inputs: TemplateInputs | None = None) -> FittedHead:
-    """Run stages 1-4 plus the network template (module docstring)."""
+             inputs: TemplateInputs | None = None, forward: str | None = None, up: str | None = None) -> FittedHead:
+    """Run stages 1-4 plus the network template (module docstring). ``forward``/``up`` name the mesh's
+    axes for the automatic landmark location (:func:`..fitting.locate_landmarks`; default: searched)."""
     def report(fraction: float, message: str) -> None:
         if progress is not None:
             progress(float(fraction), message)
@@ -134,7 +135,7 @@ def fit_head(vertices, faces, landmarks=None, *, seed: int = 0, progress=None, r
     # -- 1. landmarks --------------------------------------------------------------------------------------
     if landmarks is None:
         from ..fitting import locate_landmarks
-        fit = locate_landmarks(vertices, proper, seed=seed,
+        fit = locate_landmarks(vertices, proper, seed=seed, forward=forward, up=up,
                                progress=lambda f, m: report(0.6 * f, m))
         landmarks, tri_local, bary = fit.positions, fit.triangles, fit.barycentric
         warnings += list(fit.warnings)
@@ -168,17 +169,18 @@ def fit_head(vertices, faces, landmarks=None, *, seed: int = 0, progress=None, r
 
 def build_fitted_rig(vertices, faces, landmarks=None, *, seed: int = 0, progress=None,
                      material: SkinMaterial | None = None, resolution: str = "default",
-                     inputs: TemplateInputs | None = None) -> "FittedFaceRig":
+                     inputs: TemplateInputs | None = None, forward: str | None = None,
+                     up: str | None = None) -> "FittedFaceRig":
     """A face rig whose skin is the artist's mesh (module docstring).
 
-    ``vertices`` (n, 3) and ``faces`` (m, 3) triangles in the mesh's coordinates (the head facing -Y,
-    Z up, any scale and position); ``landmarks`` the 468 canonical landmarks on it (mesh coordinates) as
+    ``vertices`` (n, 3) and ``faces`` (m, 3) triangles in the mesh's coordinates (any axis orientation,
+    found automatically unless ``forward``/``up`` name it; any scale and position); ``landmarks`` the 468 canonical landmarks on it (mesh coordinates) as
     the artist edited them, else they are located automatically (seeded by ``seed``). ``progress(fraction,
     message)`` is called now and then. Raises :class:`UserError` for unusable meshes; problems that still
     leave a usable rig (no mouth opening, closed eyes) are listed in ``rig.warnings``.
     """
     head = fit_head(vertices, faces, landmarks, seed=seed, progress=progress, resolution=resolution,
-                    inputs=inputs)
+                    inputs=inputs, forward=forward, up=up)
     return FittedFaceRig(head, material)
 
 

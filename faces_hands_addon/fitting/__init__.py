@@ -1,9 +1,9 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Template -> new head (thesis 3.1.2 "Creating New Animatable Head Models from the Template"): locate
-the 468 MediaPipe canonical-face landmarks on an arbitrary head mesh facing -Y with Z up.
+the 468 MediaPipe canonical-face landmarks on an arbitrary head mesh in any axis orientation.
 
-Rough similarity alignment (:mod:`.align`), optimal-step non-rigid ICP (:mod:`.nicp`), projection onto the
-target triangles (:mod:`.surface`); :mod:`.testdata` makes targets with known landmarks. numpy/scipy only.
+Orientation search (:mod:`.orientation`), rough similarity alignment (:mod:`.align`), optimal-step non-rigid ICP (:mod:`.nicp`), projection onto the
+target triangles (:mod:`.surface`), the fit-quality gate (:mod:`.quality`, :mod:`.preview`); :mod:`.testdata` makes targets with known landmarks. numpy/scipy only.
 """
 from .landmarks import LandmarkFit, locate_landmarks
 from .surface import project_to_surface

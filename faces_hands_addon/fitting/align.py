@@ -13,8 +13,8 @@ template must sit on the target's face at roughly the right place and size. Two 
    (normalised cross-correlation in the sense of Lewis, "Fast Normalized Cross-Correlation", 1995).
    Because it compares shape, not "the frontmost point", it finds the face on a full head whose
    chest, hair cap or ears stick out further than the nose, and it tells a head facing -Y from one
-   facing +Y / +-X / lying face-up / upside down (the search is run for each of those orientations,
-   and for -Y pitched, yawed or rolled a little). See-through openings (eyes, mouth of a mesh with a
+   facing +Y / +-X / lying face-up / upside down (:mod:`.orientation` runs it for the 24 axis
+   orientations and tilted variants; ``FACINGS`` below are the tilts and the old named hypotheses). See-through openings (eyes, mouth of a mesh with a
    back of the head behind them) are removed from the depth image by a grey-value opening, so they
    cost like empty background instead of dominating the squared differences.
 2. **Scaled rigid ICP**, point-to-plane (Chen & Medioni 1992, linearised as in Low 2004) with a small
@@ -34,7 +34,7 @@ from ..core.geometry import vertex_normals
 from .surface import TargetSurface, least_squares
 from .template import FaceTemplate, face_template
 
-__all__ = ["Facing", "FACINGS", "Similarity", "DepthMatch", "search_orientations", "refine_search",
+__all__ = ["Facing", "FACINGS", "COARSE_SCALES", "Similarity", "DepthMatch", "search_orientations", "refine_search",
            "scaled_rigid_icp", "surface_samples"]
 
 
@@ -105,9 +105,11 @@ class DepthMatch:
 
 _COARSE_PIXELS = 64         # depth-image resolution along the target's longer side (orientation search)
 _COARSE_SCALES = np.geomspace(0.16, 1.3, 11)   # template height / target extent tried in the coarse search
+COARSE_SCALES = _COARSE_SCALES
 _FINE_FACE_PIXELS = 60      # the template's inner face spans this many pixels in the fine search
 _FINE_SCALES = np.geomspace(1 / 1.15, 1.15, 5)  # around the coarse scale
 _COARSE_SAMPLES = 60_000
+COARSE_SAMPLES = _COARSE_SAMPLES
 _FINE_SAMPLES_PER_PIXEL = 12
 _BACKGROUND_PENALTY = 0.5   # cost of a template pixel over empty background, in template-variance units
 _MIN_COVERAGE = 0.55
@@ -248,17 +250,21 @@ def _depth_match(facing: Facing, to_view: np.ndarray, found) -> DepthMatch | Non
 
 
 def search_orientations(vertices: np.ndarray, faces: np.ndarray, areas: np.ndarray, template: FaceTemplate,
-                        rng: np.random.Generator, facings=FACINGS) -> list[DepthMatch]:
-    """Coarse depth-image search (whole mesh, all scales) in each orientation hypothesis."""
-    samples = surface_samples(vertices, faces, areas, _COARSE_SAMPLES, rng)
+                        rng: np.random.Generator, facings=FACINGS, ladder=None,
+                        pixels: int = _COARSE_PIXELS, samples: np.ndarray | None = None) -> list[DepthMatch]:
+    """Coarse depth-image search (whole mesh, all scales of ``ladder``, template height / target extent,
+    default ``_COARSE_SCALES``) in each orientation hypothesis, ``pixels`` along the longer side; on
+    ``samples`` (surface points) when given, else on ``_COARSE_SAMPLES`` new ones drawn with ``rng``."""
+    if samples is None:
+        samples = surface_samples(vertices, faces, areas, _COARSE_SAMPLES, rng)
     template_depth = _template_depth()
     matches = []
     for facing in facings:
         to_view = facing.rotation()
         points = _rotated(samples, to_view)
         extent = np.ptp(points[:, [0, 2]], axis=0).max()
-        scales = extent / template_depth.height * _COARSE_SCALES
-        match = _depth_match(facing, to_view, _match_in_view(points, extent / _COARSE_PIXELS, scales,
+        scales = extent / template_depth.height * (_COARSE_SCALES if ladder is None else np.asarray(ladder))
+        match = _depth_match(facing, to_view, _match_in_view(points, extent / pixels, scales,
                                                              template_depth))
         if match is not None:
             matches.append(match)

@@ -6,8 +6,8 @@ Models from the Template").
 MEDUSA had them placed interactively; here the 468 landmarks of MediaPipe's canonical face are found
 automatically by registering the canonical face onto the target:
 
-1. depth-image search for the face in six orientation hypotheses (:mod:`.align`); a head that does not
-   face -Y is refused with advice on how to rotate it;
+1. depth-image search for the face in the 24 axis orientations (:mod:`.orientation`, :mod:`.align`),
+   or only in the one the caller names (``forward``/``up``);
 2. scaled rigid ICP of the template onto the face region (:mod:`.align`), then a global affine ICP;
 3. optimal-step non-rigid ICP (Amberg et al. 2007) with a reverse (target -> template) term and a final
    point-to-plane stage (:mod:`.nicp`);
@@ -20,9 +20,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.errors import UserError
-from .align import FACINGS, refine_search, scaled_rigid_icp, search_orientations
+from .align import scaled_rigid_icp
 from .nicp import affine_icp, nonrigid_icp, plane_refinement
+from .orientation import choose_orientation
+from .quality import FitRefused, check_fit, refusal
 from ..core.geometry import checked_mesh, triangle_normals
 from .surface import TargetSurface
 from .template import LEFT_TRAGUS, RIGHT_TRAGUS, face_template
@@ -31,8 +32,6 @@ __all__ = ["LandmarkFit", "locate_landmarks", "MAX_RMS_FRACTION", "MIN_MATCHED_F
 
 MAX_RMS_FRACTION = 0.04        # a fit whose RMS distance exceeds 4 % of the face width failed
 MIN_MATCHED_FRACTION = 0.5     # ... as does one where fewer than half the landmarks found the surface
-_FACE_SCORE_LIMIT = 0.6        # depth-search score above which no face-like relief was found
-_ORIENTATION_MARGIN = 1.3      # another orientation must beat -Y by this factor to be reported
 _CROP_MARGIN = 0.4             # face-region crop around the placed template, in face widths
 _FACE_SAMPLES = 2000           # target points for the reverse (target -> template) term
 
@@ -65,6 +64,8 @@ class LandmarkFit:
     rigid_translation: np.ndarray
     seed: int
     warnings: tuple = field(default=())
+    orientation: dict = field(default_factory=dict)
+    checks: tuple = field(default=())
 
     @property
     def rms_fraction(self) -> float:
@@ -76,43 +77,9 @@ class LandmarkFit:
         return {"rms_distance": self.rms_distance, "max_distance": self.max_distance,
                 "rms_percent_of_face_width": 100.0 * self.rms_fraction,
                 "matched_fraction": self.matched_fraction, "face_width": self.face_width,
-                "search_score": self.search_score, "warnings": list(self.warnings)}
-
-
-def _choose_orientation(vertices, faces, areas, template, rng):
-    """Depth-image search for the face (:mod:`.align`). Upright -Y and the wrong orientations first; the
-    tilted -Y variants only when that is not conclusive. Refuses a mesh that clearly faces elsewhere
-    (UserError with the rotation to apply) or shows no face at all."""
-    upright = tuple(f for f in FACINGS if not f.front or f.name == "-Y")
-    tilted = tuple(f for f in FACINGS if f.front and f.name != "-Y")
-    coarse = search_orientations(vertices, faces, areas, template, rng, upright)
-    rivals = sorted((m for m in coarse if not m.facing.front), key=lambda m: m.score)[:2]
-
-    def best_front(matches):
-        fronts = sorted((m for m in matches if m.facing.front), key=lambda m: m.score)[:2]
-        refined = [refine_search(vertices, faces, areas, template, m, rng) for m in fronts]
-        return min(refined, key=lambda m: m.score) if refined else None, fronts
-
-    def conclusive(front, fronts):
-        return (front is not None and front.score < 0.5 * _FACE_SCORE_LIMIT
-                and all(r.score > fronts[0].score for r in rivals))
-
-    front, fronts = best_front(coarse)
-    if not conclusive(front, fronts):
-        coarse = coarse + search_orientations(vertices, faces, areas, template, rng, tilted)
-        front, fronts = best_front(coarse)
-    if front is None:
-        raise UserError("could not find a face on the mesh: seen from the front (-Y) it covers too little "
-                        "area; check that it is a head facing -Y with Z up")
-    if not conclusive(front, fronts):
-        refined = [refine_search(vertices, faces, areas, template, m, rng) for m in rivals]
-        rival = min(refined, key=lambda m: m.score) if refined else None
-        if rival is not None and rival.score < _FACE_SCORE_LIMIT and rival.score * _ORIENTATION_MARGIN < front.score:
-            raise UserError(rival.facing.advice)
-    if front.score > _FACE_SCORE_LIMIT:
-        raise UserError("could not find a face on the mesh (no nose/eyes/mouth relief seen from the front, -Y); "
-                        "the mesh must be a human head or face mask facing -Y with Z up")
-    return front
+                "search_score": self.search_score, "warnings": list(self.warnings),
+                "orientation": self.orientation.get("orientation"),
+                "orientation_margin": self.orientation.get("margin")}
 
 
 def _face_region(vertices: np.ndarray, faces: np.ndarray, placed: np.ndarray, margin: float) -> np.ndarray:
@@ -137,9 +104,14 @@ def _face_samples(vertices, faces, areas, surface: TargetSurface, placed: np.nda
     return points, surface.normals[tri]
 
 
-def locate_landmarks(target_vertices, target_faces, *, seed: int = 0, progress=None) -> LandmarkFit:
-    """Locate the 468 MediaPipe landmarks on a head mesh facing -Y with Z up, at any scale and position.
+def locate_landmarks(target_vertices, target_faces, *, seed: int = 0, progress=None, forward: str | None = None,
+                     up: str | None = None, check: bool = True) -> LandmarkFit:
+    """Locate the 468 MediaPipe landmarks on a head mesh in any axis orientation, at any scale and position.
 
+    ``forward``/``up`` (axis names such as ``"-Y"``, ``"+Z"``) say where the face looks and where the top
+    of the head is, instead of searching all 24 orientations (:mod:`.orientation`). ``check`` runs the
+    fit-quality gate (:mod:`.quality`): a fit that does not look like a face raises :class:`.FitRefused`
+    (a UserError that can render a preview of where the face was looked for).
     ``target_faces`` are triangles ((M, 3) indices). ``progress(fraction, message)`` is called now and
     then. Raises :class:`UserError` for unusable meshes (no faces, NaN, degenerate, too large), a mesh
     facing another way (with the rotation to apply), or a failed fit (see ``MAX_RMS_FRACTION``).
@@ -160,7 +132,8 @@ def locate_landmarks(target_vertices, target_faces, *, seed: int = 0, progress=N
     warnings = []
 
     report(0.0, "searching for the face")
-    match = _choose_orientation(local, faces, areas, template, rng)
+    choice = choose_orientation(local, faces, areas, template, rng, forward=forward, up=up)
+    match = choice.match
     report(0.25, "rigid alignment")
     placed = match.similarity.apply(template.vertices)
     width = match.similarity.scale * template.width
@@ -192,11 +165,22 @@ def locate_landmarks(target_vertices, target_faces, *, seed: int = 0, progress=N
     rms = float(np.sqrt(np.mean(distances[on_skin] ** 2))) if on_skin.any() else float("inf")
     max_distance = float(distances[on_skin].max()) if on_skin.any() else float("inf")
     if not face_width > 0 or rms > MAX_RMS_FRACTION * face_width or matched_fraction < MIN_MATCHED_FRACTION:
-        raise UserError(
+        raise FitRefused(
             f"could not fit the face template to this mesh: RMS distance {100 * rms / max(face_width, 1e-30):.1f} % "
             f"of the face width (limit {100 * MAX_RMS_FRACTION:.0f} %), {100 * matched_fraction:.0f} % of the "
-            f"landmarks found the surface (need {100 * MIN_MATCHED_FRACTION:.0f} %); check that the mesh is a "
-            "human face facing -Y with Z up, or place the landmarks by hand")
+            f"landmarks found the surface (need {100 * MIN_MATCHED_FRACTION:.0f} %) with the face looking "
+            f"{choice.name}; check that the mesh is a human face (give its axes with --forward/--up), or "
+            "place the landmarks by hand", vertices, faces, positions, similarity.rotation.T,
+            orientation=choice.report())
+    if check:
+        report(0.95, "checking the fit")
+        checks = check_fit(positions, vertices, faces, seed=seed)
+        message = refusal(checks, choice.name)
+        if message is not None:
+            raise FitRefused(message, vertices, faces, positions, similarity.rotation.T, checks, choice.report())
+        checks = [c.as_dict() for c in checks]
+    else:
+        checks = []
     report(1.0, "landmarks located")
     return LandmarkFit(
         positions=positions, triangles=hit.triangles.copy(), barycentric=hit.barycentric.copy(),
@@ -204,5 +188,5 @@ def locate_landmarks(target_vertices, target_faces, *, seed: int = 0, progress=N
         max_distance=max_distance, matched_fraction=matched_fraction, face_width=face_width,
         search_score=float(match.score), rigid_scale=float(similarity.scale * unit),
         rigid_rotation=similarity.rotation.copy(), rigid_translation=similarity.translation * unit + centre,
-        seed=int(seed), warnings=tuple(warnings))
+        seed=int(seed), warnings=tuple(warnings), orientation=choice.report(), checks=tuple(checks))
 

@@ -23,7 +23,17 @@ class BuildFace:
 
     @staticmethod
     def add_arguments(parser):
-        parser.add_argument("--mesh", help="head mesh to fit (OBJ, PLY, STL, glTF/GLB, FBX), facing -Y, Z up")
+        parser.add_argument("--mesh", help="head mesh to fit (OBJ, PLY, STL, glTF/GLB, FBX), in any axis orientation "
+                                           "(searched; see --forward/--up); a fit that does not look like a face is "
+                                           "refused and a preview OUT.fit-preview.png written beside --out")
+        axes = ("-Y", "+Y", "Y", "+X", "-X", "X", "+Z", "-Z", "Z")
+        parser.add_argument("--forward", choices=axes, metavar="AXIS",
+                            help="the axis the face looks along after import, in Blender's axes: one of -Y, +Y, "
+                                 "+X, -X, +Z, -Z (write --forward=-Y: a value that starts with '-' needs the '='); "
+                                 "give --up too; default: searched")
+        parser.add_argument("--up", choices=axes, metavar="AXIS",
+                            help="the axis the top of the head points along after import (e.g. --up=+Z); give "
+                                 "--forward too; default: searched")
         parser.add_argument("--resolution", choices=("default", "10k"), default="default",
                             help="skin resolution of the default head")
         parser.add_argument("--name", default="FH Head", help="name of the rig object")
@@ -32,8 +42,15 @@ class BuildFace:
     @staticmethod
     def run(args, progress) -> int:
         out = check_output_path(args.out, (".blend",))
+        if (args.forward is None) != (args.up is None):
+            raise UserError("give both --forward and --up (e.g. --forward=-Y --up=+Z), or neither")
+        if args.forward and not args.mesh:
+            raise UserError("--forward/--up are the axes of a --mesh to fit; the default head needs none")
         if args.mesh:
-            services.build_fitted_from_file(args.mesh, args.name, progress)
+            from .fit import preview_path
+            forward, up = (None if a is None else a if a[0] in "+-" else "+" + a for a in (args.forward, args.up))
+            services.build_fitted_from_file(args.mesh, args.name, progress, forward, up,
+                                            preview_path(out, (Path(args.mesh),)))
         else:
             services.build_default_rig_object(progress, args.name, args.resolution)
         save_blend(out)

@@ -2,8 +2,9 @@
 """Template -> new head in Blender (thesis 3.1.2): landmark markers on the artist's mesh, then a rig
 whose skin is that very mesh (topology, UVs, materials and shape keys untouched).
 
-Coordinates: the engine fits in *world* space (so the object's own rotation and scale count: the head
-must face -Y with Z up as seen in the viewport) and a fitted rig answers in the coordinates it was given
+Coordinates: the engine fits in *world* space (so the object's own rotation and scale count: the face's
+direction and up axis are searched among the 24 axis orientations as seen in the viewport, or given as
+world axes with ``forward``/``up``) and a fitted rig answers in the coordinates it was given
 (its internal human-scale head space stays inside the engine). The rig remembers the world matrix ``M0``
 of the moment it was built; its outputs map to the object's local space by ``inv(M0)``.
 """
@@ -18,6 +19,7 @@ from mathutils import Matrix
 
 from ...faces_hands_addon.core.errors import UserError
 from ..common.meshes import mesh_triangles, mesh_vertices
+from ..common.outputs import atomic_output, same_file
 from ..common.rig_store import OUTPUT_TO_LOCAL, PART_ROLE, parts
 from .objects import create_rig_objects
 
@@ -92,6 +94,52 @@ def marker_positions_world(head) -> np.ndarray | None:
                         "delete it and locate the landmarks again")
     matrix = np.array(markers.matrix_world, dtype=np.float64)
     return local @ matrix[:3, :3].T + matrix[:3, 3]
+
+
+# ------------------------------------------------------------------------------ refused fits
+AXIS_ITEMS = [("AUTO", "Automatic", "Search the 24 axis orientations for the face (forward and up both Automatic)")] + [
+    (axis, axis, f"the face looks along world {axis} / the top of the head points along world {axis}")
+    for axis in ("-Y", "+Y", "+X", "-X", "+Z", "-Z")]
+
+
+def axes_argument(forward: str | None, up: str | None) -> tuple[str | None, str | None]:
+    """Operator/CLI axis choices as the engine's ``forward``/``up`` (None = searched)."""
+    forward = None if forward in (None, "", "AUTO") else forward
+    up = None if up in (None, "", "AUTO") else up
+    if (forward is None) != (up is None):
+        raise UserError("set both the forward and the up axis of the head (e.g. forward -Y, up +Z), or neither "
+                        "(Automatic)")
+    return forward, up
+
+
+def preview_path(out: Path, inputs=()) -> Path:
+    """``<out>.fit-preview.png`` beside ``out``; another name if that would be one of the ``inputs``."""
+    out = Path(out)
+    candidate = out.with_name(f"{out.stem}.fit-preview.png")
+    number = 2
+    while any(same_file(candidate, source) for source in inputs if source is not None):
+        candidate = out.with_name(f"{out.stem}.fit-preview-{number}.png")
+        number += 1
+    return candidate
+
+
+def default_preview_path(head_name: str) -> Path:
+    """Where the operators put the preview of a refused fit: Blender's temporary folder."""
+    import tempfile
+    safe = "".join(c if c.isalnum() or c in "-_" else "_" for c in head_name) or "head"
+    return Path(bpy.app.tempdir or tempfile.gettempdir()) / f"{safe}.fit-preview.png"
+
+
+def refuse_with_preview(error, path: Path) -> UserError:
+    """The refusal of ``error`` (a ``fitting.quality.FitRefused``) with its preview written to ``path``."""
+    from ...faces_hands_addon.fitting.preview import png_bytes
+    try:
+        data = png_bytes(error.preview())
+        with atomic_output(path) as tmp:
+            tmp.write_bytes(data)
+    except OSError as problem:
+        return UserError(f"{error} (the preview could not be written to {path}: {problem})")
+    return UserError(f"{error}. Preview of where the face was looked for: {path}")
 
 
 # ------------------------------------------------------------------------------ the fitted rig

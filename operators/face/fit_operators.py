@@ -8,7 +8,7 @@ from ...faces_hands_addon.core.errors import UserError
 from ..common.jobs import Job
 from ..common.modal import JobOperator
 from ..common.rig_store import PART_ROLE, is_rig
-from .fit import LANDMARKS_ROLE
+from .fit import AXIS_ITEMS, LANDMARKS_ROLE
 from .jobs import FitRigJob, LocateJob
 
 
@@ -17,10 +17,23 @@ def _selected_head(context):
     if obj is not None and obj.get(PART_ROLE) == LANDMARKS_ROLE:
         obj = obj.parent
     if obj is None or obj.type != "MESH":
-        raise UserError("select the head mesh (facing -Y, Z up) first")
+        raise UserError("select the head mesh first")
     if is_rig(obj):
         raise UserError(f"'{obj.name}' is already a face rig")
     return obj
+
+
+def _forward():
+    return bpy.props.EnumProperty(
+        name="Forward", items=AXIS_ITEMS, default="AUTO",
+        description="World axis the face looks along (Automatic: search the 24 axis orientations for the face; "
+                    "set Up too)")
+
+
+def _up():
+    return bpy.props.EnumProperty(
+        name="Up", items=AXIS_ITEMS, default="AUTO",
+        description="World axis the top of the head points along (Automatic: searched; set Forward too)")
 
 
 class FH_OT_locate_landmarks(JobOperator, bpy.types.Operator):
@@ -30,22 +43,27 @@ class FH_OT_locate_landmarks(JobOperator, bpy.types.Operator):
     bl_idname = "faces_hands.locate_landmarks"
     bl_label = "Locate Landmarks"
     bl_options = {"REGISTER", "UNDO"}
+    forward: _forward()
+    up: _up()
 
     def make_job(self, context) -> Job:
-        return LocateJob(context, _selected_head(context))
+        return LocateJob(context, _selected_head(context), self.forward, self.up)
 
 
 class FH_OT_fit_face_rig(JobOperator, bpy.types.Operator):
     """Make the selected head mesh animatable: warp the template's skull, jaw, muscles, eyes, teeth and
     tongue to it and build the spring network on the mesh itself (its topology, UVs, materials and shape
-    keys are kept). Uses the landmark mesh if you located and edited landmarks"""
+    keys are kept). Uses the landmark mesh if you located and edited landmarks. The face is searched in every
+    axis orientation; a fit that does not look like a face is refused with a preview picture"""
 
     bl_idname = "faces_hands.fit_face_rig"
     bl_label = "Fit Face Rig"
     bl_options = {"REGISTER", "UNDO"}
+    forward: _forward()
+    up: _up()
 
     def make_job(self, context) -> Job:
-        return FitRigJob(context, _selected_head(context))
+        return FitRigJob(context, _selected_head(context), forward=self.forward, up=self.up)
 
 
 CLASSES = [FH_OT_locate_landmarks, FH_OT_fit_face_rig]

@@ -35,17 +35,30 @@ class BuildDefaultRigJob(Job):
                 f"{len(self.rig.control_specs())} controls")
 
 
+def _refused_preview(job, error):
+    """A refused fit (``fitting.quality.FitRefused``) as a UserError naming its preview PNG."""
+    from pathlib import Path
+    path = Path(job.preview) if job.preview else fit.default_preview_path(job.head_name)
+    return fit.refuse_with_preview(error, path)
+
+
 class LocateJob(Job):
     label = "Locating landmarks"
 
-    def __init__(self, context, head):
+    def __init__(self, context, head, forward=None, up=None, preview=None):
         self.head_name = head.name
+        self.forward, self.up = fit.axes_argument(forward, up)
+        self.preview = preview
         self.world, self.faces = fit.world_geometry(head)
         self.fit = None
 
     def step(self) -> float:
         from ...faces_hands_addon.fitting import locate_landmarks
-        self.fit = locate_landmarks(self.world, self.faces, seed=0)
+        from ...faces_hands_addon.fitting.quality import FitRefused
+        try:
+            self.fit = locate_landmarks(self.world, self.faces, seed=0, forward=self.forward, up=self.up)
+        except FitRefused as error:
+            raise _refused_preview(self, error) from None
         return 1.0
 
     def commit(self, context) -> str:
@@ -59,9 +72,11 @@ class LocateJob(Job):
 class FitRigJob(Job):
     label = "Fitting face rig"
 
-    def __init__(self, context, head, name: str | None = None):
+    def __init__(self, context, head, name: str | None = None, forward=None, up=None, preview=None):
         self.head_name = head.name
         self.name = name
+        self.forward, self.up = fit.axes_argument(forward, up)
+        self.preview = preview
         self.world, self.faces = fit.world_geometry(head)
         self.matrix = np.array(head.matrix_world, dtype=np.float64)
         self.landmarks = fit.marker_positions_world(head)
@@ -73,7 +88,11 @@ class FitRigJob(Job):
         landmarks = self.landmarks
         if landmarks is not None:  # markers dragged by hand: put them back onto the surface
             landmarks = project_to_surface(landmarks, self.world, self.faces)[0]
-        self.rig = build_fitted_rig(self.world, self.faces, landmarks, seed=0)
+        from ...faces_hands_addon.fitting.quality import FitRefused
+        try:
+            self.rig = build_fitted_rig(self.world, self.faces, landmarks, seed=0, forward=self.forward, up=self.up)
+        except FitRefused as error:
+            raise _refused_preview(self, error) from None
         return 1.0
 
     def commit(self, context) -> str:

@@ -32,11 +32,13 @@ def build_default_rig_object(progress=None, name: str = "FH Head", resolution: s
     return find_rig(bpy.data.objects, name, KIND)
 
 
-def build_fitted_from_file(path: str, name: str, progress=None):
-    """A new empty file holding the mesh of ``path`` fitted as a face rig; returns the rig object."""
+def build_fitted_from_file(path: str, name: str, progress=None, forward=None, up=None, preview=None):
+    """A new empty file holding the mesh of ``path`` fitted as a face rig; returns the rig object.
+    ``forward``/``up``: the mesh's axes after import (None: searched); ``preview``: where a refused fit's
+    picture goes."""
     bpy.ops.wm.read_homefile(use_empty=True)
     head = import_head(path)
-    print(run_job(FitRigJob(bpy.context, head, name), bpy.context, progress))
+    print(run_job(FitRigJob(bpy.context, head, name, forward, up, preview), bpy.context, progress))
     return head
 
 

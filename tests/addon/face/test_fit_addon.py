@@ -2,6 +2,8 @@
 from __future__ import annotations
 
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -64,7 +66,7 @@ def test_fit_rig_keeps_the_mesh_and_muscles_act(bpy_clean):
     assert np.all(centre[:3] > low[:3] - 0.05) and np.all(centre[:3] < high[:3] + 0.05), "teeth not in the head"
 
 
-@pytest.mark.parametrize("case", ["no_faces", "non_manifold", "facing_plus_y"])
+@pytest.mark.parametrize("case", ["no_faces", "non_manifold", "suzanne", "half_axes"])
 def test_fit_bad_input_is_a_clear_error_and_changes_nothing(bpy_clean, case):
     bpy = bpy_clean
     if case == "no_faces":
@@ -80,16 +82,38 @@ def test_fit_bad_input_is_a_clear_error_and_changes_nothing(bpy_clean, case):
         obj = bpy.data.objects.new("Fins", mesh)
         bpy.context.scene.collection.objects.link(obj)
         expected = "manifold"
+    elif case == "suzanne":
+        bpy.ops.mesh.primitive_monkey_add()          # faces -Y, Z up: a face, but not a human one
+        obj = bpy.context.active_object
+        expected = r"does not look like a human face.*limit.*Preview of where the face was looked for: .*png"
     else:
         obj, _ = _head_object(bpy)
-        obj.rotation_euler = (0.0, 0.0, np.pi)
-        expected = "-Y"
+        expected = "both the forward and the up axis"
     bpy.context.view_layer.objects.active = obj
     bpy.context.view_layer.update()
     state, keys = _state(bpy), sorted(obj.keys())
-    with pytest.raises(RuntimeError, match=expected):
-        bpy.ops.faces_hands.fit_face_rig()
+    options = {"forward": "-Y"} if case == "half_axes" else {}
+    with pytest.raises(RuntimeError, match=expected) as refused:
+        bpy.ops.faces_hands.fit_face_rig(**options)
     assert _state(bpy) == state and sorted(obj.keys()) == keys
+    if case == "suzanne":
+        preview = Path(str(refused.value).rsplit("looked for: ", 1)[1].split()[0].rstrip("."))
+        assert preview.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_fit_rig_on_a_head_lying_face_up(bpy_clean):
+    """A head turned 90 degrees about X (face towards +Z, as after a Y-up import) is found and fitted; the
+    rig's landmarks are the upright head's, turned with it."""
+    bpy = bpy_clean
+    obj, head = _head_object(bpy)
+    obj.rotation_euler = (-np.pi / 2, 0.0, 0.0)
+    bpy.context.view_layer.update()
+    assert bpy.ops.faces_hands.fit_face_rig() == {"FINISHED"}
+    rig = addon_module("operators.common.rig_store").get_rig(obj)
+    world = np.array(obj.matrix_world)
+    truth = head.truth @ world[:3, :3].T + world[:3, 3]
+    error = np.linalg.norm(np.asarray(rig.landmarks) - truth, axis=1) / head.face_width
+    assert np.median(error) < 0.012 and error.max() < 0.06
 
 
 def test_huge_mesh_is_refused(bpy_clean):
@@ -113,6 +137,30 @@ def test_cli_build_face_from_obj(installed, tmp_path, bpy_clean):
     result = run_fh(installed, "build-face", "--mesh", path, "--out", out)
     assert result.returncode == 0, result.stderr[-2000:]
     assert out.exists()
+    turned = run_fh(installed, "build-face", "--mesh", path, "--forward=-Y", "--out", tmp_path / "y.blend")
+    assert turned.returncode == 1 and "--up" in turned.stderr and not (tmp_path / "y.blend").exists()
     missing = run_fh(installed, "build-face", "--mesh", tmp_path / "nope.obj", "--out", tmp_path / "x.blend")
     assert missing.returncode == 1 and "does not exist" in missing.stderr
     assert not (tmp_path / "x.blend").exists()
+
+
+def test_cli_refuses_suzanne_and_a_cube_with_a_preview(installed, tmp_path, bpy_clean):
+    bpy = bpy_clean
+    for name, add in (("suzanne", bpy.ops.mesh.primitive_monkey_add), ("cube", bpy.ops.mesh.primitive_cube_add)):
+        for obj in list(bpy.data.objects):
+            bpy.data.objects.remove(obj)
+        add()
+        path = tmp_path / f"{name}.obj"
+        bpy.ops.wm.obj_export(filepath=str(path), export_selected_objects=False, export_materials=False)
+        out = tmp_path / f"{name}.blend"
+        before = path.read_bytes()
+        result = run_fh(installed, "build-face", "--mesh", path, "--out", out)
+        assert result.returncode == 1, result.stderr[-2000:]
+        assert not out.exists() and path.read_bytes() == before
+        if name == "suzanne":
+            assert "does not look like a human face" in result.stderr and "limit" in result.stderr
+            preview = tmp_path / "suzanne.fit-preview.png"
+            assert str(preview) in result.stderr and preview.read_bytes()[:4] == b"\x89PNG"
+        else:
+            assert any(text in result.stderr for text in ("could not find a face", "does not look like a human face",
+                                                          "no part of the head mesh lies where the face"))

@@ -315,9 +315,9 @@ def test_bad_meshes_are_refused_with_a_clear_message(mask):
         build_fitted_rig(huge, np.array([[0, 1, 2]]))
     with pytest.raises(UserError, match="landmarks"):
         build_fitted_rig(mask.vertices, mask.faces, landmarks=np.zeros((10, 3)))
-    turned = testdata.rotated_head(mask, "+Y")
-    with pytest.raises(UserError, match="facing|faces|rotate|-Y"):
-        build_fitted_rig(turned.vertices, turned.faces)
+    turned = testdata.rotated_head(mask, "+Y")       # found when searched; refused when told it faces -Y
+    with pytest.raises(UserError, match=r"face.*forward -Y, up \+Z"):
+        build_fitted_rig(turned.vertices, turned.faces, forward="-Y", up="+Z")
 
 
 def test_the_default_rig_is_in_head_space():
