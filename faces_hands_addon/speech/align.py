@@ -216,8 +216,8 @@ def _force_align(ps, pcm, samples, rate, duration, pitch, text, cleaned, tags, l
             if free is None:
                 free = _free_phones(ps, pcm)
             fit = transcript_check.measure(decoder, free, pcm, texts)
-            transcript_check.judge(fit)  # refuses a transcript that does not match
             soft = transcript_check.soft_path(ps, pcm, keys, decoder_words, fit.words, beams)
+            transcript_check.judge_with_soft(fit, soft)  # refuses a transcript that does not match
             expected = _expected_durations(cleaned, spans, "en-us" if english else voice)
             warnings.extend(transcript_check.named_warnings(fit, soft, expected))
             break

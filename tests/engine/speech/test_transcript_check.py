@@ -137,3 +137,23 @@ def test_without_transcript_phones_cover_the_speech():
     assert abs(first.start - SPEECH_START) < 0.1
     assert abs(last.end - FESTIVAL_WORD_ENDS[-1]) < 0.15
     assert utterance.phones[-1].is_pause  # the trailing silence is silence, not a held phone
+
+
+def _fit(bad_tokens):
+    words = [transcript_check.WordFit(t, f"w{t}", 30 * t, 30 * t + (20 if t in bad_tokens else 29),
+                                      -600.0 if t in bad_tokens else -20.0, 7 if t in bad_tokens else 3)
+             for t in range(8)]
+    return transcript_check.TranscriptFit(words, texts=[w.text for w in words])
+
+
+def test_one_unspoken_word_is_named_not_refused():
+    """A transcript refused only because of an added word the soft path left out is judged without it;
+    three such words (or none left out) still refuse."""
+    fit = _fit({3})
+    with pytest.raises(UserError, match="does not match"):
+        transcript_check.judge(fit)
+    transcript_check.judge_with_soft(fit, transcript_check.SoftPath(skipped=[3]))
+    with pytest.raises(UserError, match="does not match"):
+        transcript_check.judge_with_soft(fit, transcript_check.SoftPath(skipped=[]))
+    with pytest.raises(UserError, match="does not match"):
+        transcript_check.judge_with_soft(_fit({1, 3, 5}), transcript_check.SoftPath(skipped=[1, 3, 5]))
