@@ -215,7 +215,11 @@ def _force_align(ps, pcm, samples, rate, duration, pitch, text, cleaned, tags, l
         if decoder.hyp() is not None:
             if free is None:
                 free = _free_phones(ps, pcm)
-            warnings.extend(transcript_check.judge(transcript_check.measure(decoder, free, pcm, texts)))
+            fit = transcript_check.measure(decoder, free, pcm, texts)
+            soft = transcript_check.soft_path(ps, pcm, keys, decoder_words, fit.words, beams)
+            transcript_check.judge_with_soft(fit, soft)  # refuses a transcript that does not match
+            expected = _expected_durations(cleaned, spans, "en-us" if english else voice)
+            warnings.extend(transcript_check.named_warnings(fit, soft, expected))
             break
     else:
         raise UserError("the transcript does not match the audio (no alignment reaches the end of the "
@@ -250,6 +254,17 @@ def _force_align(ps, pcm, samples, rate, duration, pitch, text, cleaned, tags, l
     return assemble_utterance(text=text, language=language, samples=samples, sample_rate=rate,
                               phones=phones, words=drafts, emotions=tags, pitch=pitch,
                               source="alignment", warnings=warnings)
+
+
+def _expected_durations(text: str, spans, voice: str) -> list[float | None]:
+    """Per token span, how long espeak-ng takes to say it (s; None where it merged or lacks the word)."""
+    from .tts import synthesize  # noqa: PLC0415 - espeak is optional for dictionary words
+    try:
+        spoken = synthesize(text, voice=voice)
+    except UserError:
+        return [None] * len(spans)
+    by_start = {w.text_start: w.end - w.start for w in spoken.words}
+    return [by_start.get(a) for a, _ in spans]
 
 
 def _espeak_pronunciations(text: str, voice: str) -> dict:
