@@ -37,21 +37,12 @@ else:                                                # the installed extension, 
     import _harness  # noqa: E402,F401
 
 import numpy as np  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # bench/_workloads.py
+from _workloads import animated_controls as _animated_controls  # noqa: E402
 
 from faces_hands_addon.face.rig import build_default_rig  # noqa: E402
 
 FRAME_DT = 1.0 / 24.0          # Blender's default scene rate
-
-
-def _animated_controls(frame: int) -> dict[str, float]:
-    """A busy performance: smile and jaw in anti-phase, a blink, brows, lips, every frame different."""
-    phase = 2 * np.pi * frame / 24.0
-    wave = 0.5 - 0.5 * np.cos(phase)
-    return {"zygomaticus_major_L": wave, "zygomaticus_major_R": wave, "jaw_open": 0.6 * (1 - wave),
-            "frontalis_inner_L": 0.5 * wave, "frontalis_inner_R": 0.5 * wave,
-            "orbicularis_oris_upper": 0.3 * (1 - wave), "orbicularis_oris_lower": 0.3 * (1 - wave),
-            "eyelid_close_L": float(frame % 48 < 4), "eyelid_close_R": float(frame % 48 < 4),
-            "eye_yaw": 0.3 * np.sin(phase / 2)}
 
 
 def engine_figures(resolution: str = "default", frames: int = 96, steps: int = 300) -> dict[str, float]:

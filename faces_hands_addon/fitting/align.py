@@ -35,6 +35,7 @@ from .surface import TargetSurface, least_squares
 from .template import FaceTemplate, face_template
 
 __all__ = ["Facing", "FACINGS", "COARSE_SCALES", "Similarity", "DepthMatch", "search_orientations", "refine_search",
+           "tilted_front",
            "scaled_rigid_icp", "surface_samples"]
 
 
@@ -54,7 +55,7 @@ class Facing:
         return np.stack([np.cross(u, f), -f, u])
 
 
-def _tilted_front(name: str, axis: int, degrees: float) -> Facing:
+def tilted_front(name: str, axis: int, degrees: float) -> Facing:
     """-Y / Z-up turned by ``degrees`` about world axis ``axis`` (0 pitch, 1 roll, 2 yaw)."""
     c, s = np.cos(np.radians(degrees)), np.sin(np.radians(degrees))
     turn = np.eye(3)
@@ -67,7 +68,7 @@ def _tilted_front(name: str, axis: int, degrees: float) -> Facing:
 # others are the usual import mistakes, each with the rotation that fixes it.
 FACINGS = (
     Facing("-Y", (0, -1, 0), (0, 0, 1), "", True),
-    *(_tilted_front(f"-Y {kind} {angle:+d}", axis, angle)
+    *(tilted_front(f"-Y {kind} {angle:+d}", axis, angle)
       for kind, axis, step in (("pitch", 0, 15), ("yaw", 2, 15), ("roll", 1, 10)) for angle in (-step, step)),
     Facing("+Y", (0, 1, 0), (0, 0, 1),
            "the mesh seems to face +Y; rotate it to face -Y (Blender's front view), e.g. 180 degrees about Z"),

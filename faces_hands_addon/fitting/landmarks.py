@@ -104,6 +104,15 @@ def _face_samples(vertices, faces, areas, surface: TargetSurface, placed: np.nda
     return points, surface.normals[tri]
 
 
+def _quality_gate(positions, vertices, faces, seed: int, similarity, choice) -> list[dict]:
+    """The fit-quality checks of :mod:`.quality` as dicts; raises :class:`.FitRefused` when one fails."""
+    checks = check_fit(positions, vertices, faces, seed=seed)
+    message = refusal(checks, choice.name)
+    if message is not None:
+        raise FitRefused(message, vertices, faces, positions, similarity.rotation.T, checks, choice.report())
+    return [c.as_dict() for c in checks]
+
+
 def locate_landmarks(target_vertices, target_faces, *, seed: int = 0, progress=None, forward: str | None = None,
                      up: str | None = None, check: bool = True) -> LandmarkFit:
     """Locate the 468 MediaPipe landmarks on a head mesh in any axis orientation, at any scale and position.
@@ -174,13 +183,7 @@ def locate_landmarks(target_vertices, target_faces, *, seed: int = 0, progress=N
             orientation=choice.report())
     if check:
         report(0.95, "checking the fit")
-        checks = check_fit(positions, vertices, faces, seed=seed)
-        message = refusal(checks, choice.name)
-        if message is not None:
-            raise FitRefused(message, vertices, faces, positions, similarity.rotation.T, checks, choice.report())
-        checks = [c.as_dict() for c in checks]
-    else:
-        checks = []
+    checks = _quality_gate(positions, vertices, faces, seed, similarity, choice) if check else []
     report(1.0, "landmarks located")
     return LandmarkFit(
         positions=positions, triangles=hit.triangles.copy(), barycentric=hit.barycentric.copy(),

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.errors import UserError
-from .align import (COARSE_SAMPLES, COARSE_SCALES, FACINGS, DepthMatch, Facing, _tilted_front, refine_search,
+from .align import (COARSE_SAMPLES, COARSE_SCALES, FACINGS, DepthMatch, Facing, tilted_front, refine_search,
                     search_orientations, surface_samples)
 
 __all__ = ["AXES", "AXIS_VECTORS", "axis_facing", "ORIENTATIONS", "OrientationChoice", "choose_orientation",
@@ -62,7 +62,7 @@ ORIENTATIONS = tuple(axis_facing(f, u) for f in AXES for u in AXES if abs(np.dot
 # -Y / Z-up pitched, yawed (+-15, +-30 degrees) and rolled (+-10, +-30): with the rigid ICP after it, this
 # reaches heads up to ~45 degrees between two axis orientations
 _TILTS = tuple(f for f in FACINGS if f.front and f.name != "-Y") + tuple(
-    _tilted_front(f"-Y {kind} {angle:+d}", axis, angle) for kind, axis in (("pitch", 0), ("yaw", 2), ("roll", 1))
+    tilted_front(f"-Y {kind} {angle:+d}", axis, angle) for kind, axis in (("pitch", 0), ("yaw", 2), ("roll", 1))
     for angle in (-30, 30))
 _TILTED = 3                 # coarse winners the tilts are tried on
 _AUX_SEED = 0x0F17          # the random stream of the rivals' refinements and the tilts (deterministic)

@@ -173,6 +173,24 @@ def _decoder_with_words(ps, beams: dict, words: list[tuple[str, str]]):
     return decoder
 
 
+def _alignment_entries(alignment, word_count: int) -> list[tuple]:
+    """(phone, start s, end s, 0, word index or -1 for silence) of pocketsphinx's phone alignment."""
+    entries = []
+    token = 0
+    for entry in alignment:
+        name = entry.name.split("(")[0]
+        if name in ("<s>", "</s>", "<sil>") or token >= word_count:
+            for phone_entry in entry:
+                entries.append(("SIL", phone_entry.start * FRAME,
+                                (phone_entry.start + phone_entry.duration) * FRAME, 0, -1))
+            continue
+        for phone_entry in entry:
+            entries.append((phone_entry.name, phone_entry.start * FRAME,
+                            (phone_entry.start + phone_entry.duration) * FRAME, 0, token))
+        token += 1
+    return entries
+
+
 def _force_align(ps, pcm, samples, rate, duration, pitch, text, cleaned, tags, language) -> Utterance:
     decoder = ps.Decoder(lm=None, bestpath=False, loglevel="FATAL", compallsen=True)
     english = language.lower().startswith("en")
@@ -230,20 +248,7 @@ def _force_align(ps, pcm, samples, rate, duration, pitch, text, cleaned, tags, l
     if alignment is None:
         raise UserError("the transcript does not match the audio (phone alignment failed)")
 
-    entries = []
-    token = 0
-    for entry in alignment:
-        name = entry.name.split("(")[0]
-        if name in ("<s>", "</s>", "<sil>") or token >= len(spans):
-            for phone_entry in entry:
-                entries.append(("SIL", phone_entry.start * FRAME,
-                                (phone_entry.start + phone_entry.duration) * FRAME, 0, -1))
-            continue
-        for phone_entry in entry:
-            entries.append((phone_entry.name, phone_entry.start * FRAME,
-                            (phone_entry.start + phone_entry.duration) * FRAME, 0, token))
-        token += 1
-    phones, tokens = _tile(entries, duration)
+    phones, tokens = _tile(_alignment_entries(alignment, len(spans)), duration)
     token_phones: dict[int, list[int]] = {}
     for i, t in enumerate(tokens):
         if t >= 0:

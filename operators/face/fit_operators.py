@@ -52,9 +52,8 @@ class FH_OT_locate_landmarks(JobOperator, bpy.types.Operator):
 
 class FH_OT_fit_face_rig(JobOperator, bpy.types.Operator):
     """Make the selected head mesh animatable: warp the template's skull, jaw, muscles, eyes, teeth and
-    tongue to it and build the spring network on the mesh itself (its topology, UVs, materials and shape
-    keys are kept). Uses the landmark mesh if you located and edited landmarks. The face is searched in every
-    axis orientation; a fit that does not look like a face is refused with a preview picture"""
+    tongue to it and build the spring network on the mesh itself (topology, UVs, materials and shape keys
+    kept), from your edited landmarks if any. A fit that does not look like a face is refused"""
 
     bl_idname = "faces_hands.fit_face_rig"
     bl_label = "Fit Face Rig"
