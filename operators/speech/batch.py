@@ -210,7 +210,10 @@ def run_jobs(rows: list[dict], rig_path, fps, progress, run_line, *, jobs_path=N
             except UserError as error:
                 report.fail(number, spec["out"], str(error))
             except KeyboardInterrupt:
-                print(f"faces_hands: {report.interrupted(number, written_since(mark), list(specs))}")
+                partial = written_since(mark)
+                if {Path(p) for p in spec["outputs"]} <= {Path(p) for p in partial}:
+                    report.done[number] = partial        # all its files were on disk when the interrupt came
+                print(f"faces_hands: {report.interrupted(number, partial, list(specs))}")
                 raise
             except Exception as error:  # a bug in one row must not cost the other rows
                 report.fail(number, spec["out"], f"internal error: {type(error).__name__}: {error}")
