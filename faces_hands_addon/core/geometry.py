@@ -12,7 +12,7 @@ from .errors import UserError
 
 __all__ = ["unique_edges", "edge_length_graph", "face_normals", "triangle_normals", "vertex_normals", "vertex_areas",
            "boundary_edge_flags", "closest_points_on_triangles", "closest_points", "mirror_map",
-           "winding_number", "checked_mesh", "MAX_VERTICES", "MAX_TRIANGLES"]
+           "winding_number", "checked_mesh", "MAX_VERTICES", "MAX_TRIANGLES", "similarity_transform"]
 
 MAX_VERTICES = 5_000_000
 MAX_TRIANGLES = 10_000_000
@@ -223,3 +223,23 @@ def checked_mesh(vertices, faces, what: str = "the head mesh") -> tuple[np.ndarr
     if not (area > 0.5e-12 * extent * extent).any():
         raise UserError(f"{what} is degenerate: all its triangles have zero area")
     return vertices, faces
+
+
+def similarity_transform(source: np.ndarray, target: np.ndarray, allow_rotation: bool = True) -> np.ndarray:
+    """Least-squares similarity (Umeyama 1991) mapping ``source`` onto ``target`` points, as a 4x4 matrix."""
+    mu_s, mu_t = source.mean(0), target.mean(0)
+    s, t = source - mu_s, target - mu_t
+    if allow_rotation:
+        u, sig, vt = np.linalg.svd(t.T @ s / len(source))
+        d = np.ones(3)
+        if np.linalg.det(u @ vt) < 0:
+            d[-1] = -1
+        rot = u @ np.diag(d) @ vt
+        scale = float((sig * d).sum() / max((s ** 2).sum() / len(source), 1e-30))
+    else:
+        rot = np.eye(3)
+        scale = float(np.sqrt((t ** 2).sum() / max((s ** 2).sum(), 1e-30)))
+    out = np.eye(4)
+    out[:3, :3] = scale * rot
+    out[:3, 3] = mu_t - scale * rot @ mu_s
+    return out

@@ -23,6 +23,7 @@ import numpy as np
 from ..core.errors import UserError
 from ..physics.rbf import RBFWarp
 from ..core import geometry
+from ..core.geometry import similarity_transform
 from ..core.presets import NUMBER, PresetFormat, parse_preset, read_preset_text, register_format, resolve
 
 __all__ = ["Landmark", "BoneFit", "load_landmarks", "parse_landmarks", "fit_bones", "similarity_transform", "FORMAT"]
@@ -78,26 +79,6 @@ def parse_landmarks(text: str, where: str = "landmarks.json", legacy: bool = Tru
         if mark.bone not in ("skull", "jaw") or not 0 <= mark.depth < 0.05:
             raise UserError(f"{path}: landmark {mark.name} needs bone 'skull'/'jaw' and a depth of 0-50 mm")
     return marks, doc.get("skull_hints", {})
-
-
-def similarity_transform(source: np.ndarray, target: np.ndarray, allow_rotation: bool = True) -> np.ndarray:
-    """Least-squares similarity (Umeyama 1991) mapping ``source`` onto ``target`` points, as a 4x4 matrix."""
-    mu_s, mu_t = source.mean(0), target.mean(0)
-    s, t = source - mu_s, target - mu_t
-    if allow_rotation:
-        u, sig, vt = np.linalg.svd(t.T @ s / len(source))
-        d = np.ones(3)
-        if np.linalg.det(u @ vt) < 0:
-            d[-1] = -1
-        rot = u @ np.diag(d) @ vt
-        scale = float((sig * d).sum() / max((s ** 2).sum() / len(source), 1e-30))
-    else:
-        rot = np.eye(3)
-        scale = float(np.sqrt((t ** 2).sum() / max((s ** 2).sum(), 1e-30)))
-    out = np.eye(4)
-    out[:3, :3] = scale * rot
-    out[:3, 3] = mu_t - scale * rot @ mu_s
-    return out
 
 
 def _apply(matrix: np.ndarray, points: np.ndarray) -> np.ndarray:

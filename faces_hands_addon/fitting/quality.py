@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.errors import UserError
+from ..core.geometry import similarity_transform
 from .surface import TargetSurface
 from .template import face_template
 
@@ -66,17 +67,7 @@ class Check:
 def head_frame(landmarks: np.ndarray) -> tuple[np.ndarray, float]:
     """(4x4 similarity target -> canonical face, residual RMS in face widths), Umeyama 1991."""
     canonical = face_template().vertices
-    mu_s, mu_t = landmarks.mean(0), canonical.mean(0)
-    s, t = landmarks - mu_s, canonical - mu_t
-    u, sig, vt = np.linalg.svd(t.T @ s / len(s))
-    d = np.ones(3)
-    if np.linalg.det(u @ vt) < 0:
-        d[-1] = -1
-    rot = u @ np.diag(d) @ vt
-    scale = float((sig * d).sum() / max((s ** 2).sum() / len(s), 1e-300))
-    matrix = np.eye(4)
-    matrix[:3, :3] = scale * rot
-    matrix[:3, 3] = mu_t - scale * rot @ mu_s
+    matrix = similarity_transform(landmarks, canonical)
     mapped = landmarks @ matrix[:3, :3].T + matrix[:3, 3]
     residual = float(np.sqrt(np.mean(np.sum((mapped - canonical) ** 2, axis=1))) / face_template().width)
     return matrix, residual
