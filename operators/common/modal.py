@@ -20,7 +20,7 @@ class JobOperator(HardenedOperator):
 
     _timer = None
     _job: Job | None = None
-    time_slice = 0.05  # seconds of work per timer tick
+    time_slice = 0.05  # seconds of work per timer tick (at least one step; 0: one step per tick)
 
     def make_job(self, context) -> Job:  # pragma: no cover - abstract
         raise NotImplementedError
@@ -71,10 +71,9 @@ class JobOperator(HardenedOperator):
             return {"PASS_THROUGH"}
         try:
             deadline = time.perf_counter() + self.time_slice
-            fraction = 0.0
-            while time.perf_counter() < deadline:
+            while True:  # at least one step per tick; a time slice of 0 means exactly one
                 fraction = float(self._job.step())
-                if fraction >= 1.0:
+                if fraction >= 1.0 or time.perf_counter() >= deadline:
                     break
             context.window_manager.progress_update(int(fraction * 100))
             if fraction < 1.0:

@@ -4,6 +4,7 @@ steps that Esc cancels with nothing written; bad input is one clear error with n
 from __future__ import annotations
 
 from pathlib import Path
+import threading
 from types import SimpleNamespace
 
 import numpy as np
@@ -151,7 +152,7 @@ def test_progress_in_steps_and_esc_cancels_with_nothing_written(bpy_clean):
     fake = SimpleNamespace(report=lambda kind, text: reports.append(text), _timer=None, _job=None,
                            source="TEXT", text="Hello there, how are you?", filepath="", transcript="",
                            style="neutral", seed=0, emotion="", loudness=True, start_at_current=False,
-                           time_slice=0.001)
+                           time_slice=0.0)  # one step per tick, so every stage's progress is shown
     fake.make_job = lambda ctx: cls.make_job(fake, ctx)
     fake._finish_modal = lambda ctx: cls._finish_modal(fake, ctx)
     fake._report_done = lambda job, report: cls._report_done(fake, job, report)
@@ -167,9 +168,12 @@ def test_progress_in_steps_and_esc_cancels_with_nothing_written(bpy_clean):
     assert "cancelled" in reports[-1] and rig.animation_data is None
     # Esc while the worker is still busy: cancelled at once, its result dropped
     assert cls.invoke(fake, context, SimpleNamespace(type="NONE")) == {"RUNNING_MODAL"}
+    job, release = fake._job, threading.Event()
+    make_take = job.make_take
+    job.make_take = lambda report: release.wait(60) and make_take(report)  # busy until released
     assert cls.modal(fake, context, SimpleNamespace(type="TIMER")) == {"RUNNING_MODAL"}
-    job = fake._job
     assert cls.modal(fake, context, SimpleNamespace(type="ESC")) == {"CANCELLED"}
+    release.set()
     job._thread.join(timeout=60)
     assert rig.animation_data is None and job.take is None
     # run to the end: the worker's progress up to 60, then 85, 100 and finished

