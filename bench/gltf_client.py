@@ -282,14 +282,16 @@ def validate(paths: list[Path]) -> list[dict]:
 
 
 def play(path: Path, skin: Skin, clip: str, times: np.ndarray, vertices: np.ndarray, shots: list[dict],
-         influences: bool = True) -> dict:
+         influences: bool = True, views_shots: list[dict] = (), size: tuple[int, int] = (1500, 600)) -> dict:
+    """Play the GLB in three.js; ``shots`` are fhRender screenshots, ``views_shots`` fhRenderViews ones
+    ({time, png, views: [{yaw, pitch, target, distance, fov}]}) at ``size`` pixels."""
     with tempfile.TemporaryDirectory(prefix="fh-gltf-client-") as tmp:
         job, result = Path(tmp) / "job.json", Path(tmp) / "result.json"
         job.write_text(json.dumps({"glb": str(path), "mesh": skin.mesh, "clip": clip, "times": times.tolist(),
-                                   "influences": influences,
+                                   "influences": influences, "views_shots": list(views_shots),
                                    "vertices": vertices.tolist(), "shots": shots, "chromium": CHROMIUM,
                                    "focus": skin.rest(vertices).mean(axis=0).tolist(),
-                                   "width": 1500, "height": 600}))
+                                   "width": size[0], "height": size[1]}))
         started = time.perf_counter()
         done = node_json("play.mjs", str(job), str(result))
         wall = time.perf_counter() - started

@@ -32,7 +32,8 @@ window.fhLoad = async (url, meshIndex, clipName) => {
   const meshes = [];
   gltf.scene.traverse((o) => {
     if (o.isMesh) meshes.push({ name: o.name, vertices: o.geometry.attributes.position.count,
-      morphTargets: (o.geometry.morphAttributes.position || []).length });
+      morphTargets: (o.geometry.morphAttributes.position || []).length,
+      attributes: Object.keys(o.geometry.attributes), vertexColors: !!o.material.vertexColors });
   });
   // tracks the mixer actually bound to an object (an unbound track would play nothing)
   const bound = action._propertyBindings.filter((b) => b.binding.node !== undefined && b.binding.node !== null).length;
@@ -102,6 +103,31 @@ window.fhRender = (t, width, height, focus) => {
   const gl = renderer.getContext();
   const debug = gl.getExtension('WEBGL_debug_renderer_info');
   return { renderer: gl.getParameter(debug ? debug.UNMASKED_RENDERER_WEBGL : gl.RENDERER), time: action.time };
+};
+
+window.fhRenderViews = (t, width, height, views) => {
+  // side-by-side panels, each {yaw (rad, 0 = front), pitch (rad), target: world xyz, distance, fov (deg)}
+  const { scene, mixer, action } = state;
+  action.reset();
+  mixer.setTime(t);
+  if (!state.renderer) window.fhRender(t, width, height, [0, 0, 0]);
+  const renderer = state.renderer;
+  renderer.setSize(width, height);
+  scene.background = new THREE.Color(0xd8d8d8);   // light: the painted brows are the darkest pixels
+  const panel = width / views.length;
+  renderer.setScissorTest(true);
+  views.forEach((view, k) => {
+    const camera = new THREE.PerspectiveCamera(view.fov || 20, panel / height, 0.005, 10);
+    const [x, y, z] = view.target;
+    const d = view.distance, yaw = view.yaw || 0, pitch = view.pitch || 0;
+    camera.position.set(x + d * Math.sin(yaw) * Math.cos(pitch), y + d * Math.sin(pitch),
+      z + d * Math.cos(yaw) * Math.cos(pitch));
+    camera.lookAt(new THREE.Vector3(x, y, z));
+    renderer.setViewport(k * panel, 0, panel, height);
+    renderer.setScissor(k * panel, 0, panel, height);
+    renderer.render(scene, camera);
+  });
+  return { time: action.time };
 };
 
 window.fhReady = true;

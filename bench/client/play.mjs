@@ -3,7 +3,7 @@
 // folder's page, three.js and the GLB from disk through request interception (no network, no server),
 // and runs the page's fhLoad / fhSample / fhRender. Reads a job JSON file (argv[2]):
 //   {glb, mesh, clip, times: [s], vertices: [i], shots: [{time, png}], focus: [x, y, z], width, height,
-//    chromium, influences (false: positions only)}
+//    chromium, influences (false: positions only), views_shots: [{time, png, views}] (fhRenderViews)}
 // and writes the result JSON to argv[3].
 import { readFile, writeFile } from 'node:fs/promises';
 import { dirname, join } from 'node:path';
@@ -57,6 +57,12 @@ try {
       [shot.time, job.width || 1200, job.height || 700, job.focus || [0, 0, 0]]);
     await page.locator('canvas').screenshot({ path: shot.png });
     shots.push({ ...shot, ...r });
+  }
+  for (const shot of job.views_shots || []) {   // {time, png, views: [...]} for fhRenderViews
+    const r = await page.evaluate(([t, w, h, v]) => window.fhRenderViews(t, w, h, v),
+      [shot.time, job.width || 1200, job.height || 700, shot.views]);
+    await page.locator('canvas').screenshot({ path: shot.png });
+    shots.push({ time: shot.time, png: shot.png, ...r });
   }
   const result = { info, samples, shots, logs, loadMs, sampleMs, browser: browser.version() };
   await writeFile(process.argv[3], JSON.stringify(result));

@@ -11,6 +11,7 @@ import numpy as np
 from ..common import controls
 from ..common.meshes import mesh_from_arrays
 from ..common.rig_store import PART_ROLE, parts, store_rig
+from ...faces_hands_addon.face.appearance import skin_colours
 
 __all__ = ["EXPORT_ROLES", "create_rig_objects", "update_muscle_display", "set_wrinkle_drivers",
            "muscle_display_arrays"]
@@ -42,6 +43,40 @@ PART_COLOURS = {
     "pupil": ((0.02, 0.02, 0.02), 0.2, 0.0), "tooth": ((0.92, 0.90, 0.82), 0.3, 0.0),
     "gum": ((0.75, 0.35, 0.38), 0.4, 0.0), "tongue": ((0.78, 0.36, 0.38), 0.5, 0.1),
 }
+
+
+PAINT_ATTRIBUTE = "FH Skin Paint"
+
+
+def _painted_skin_material():
+    """The default head's skin: base colour from the per-node paint (brows, lips), exported as glTF COLOR_0."""
+    mat = bpy.data.materials.get("FH Painted Skin")
+    if mat is None:
+        mat = _material("FH Painted Skin", *PART_COLOURS["skin"])
+        nodes = mat.node_tree.nodes
+        shader = nodes.get("Principled BSDF")
+        attribute = nodes.new("ShaderNodeAttribute")
+        attribute.attribute_name = PAINT_ATTRIBUTE
+        if shader is not None:
+            mat.node_tree.links.new(attribute.outputs["Color"], shader.inputs["Base Color"])
+    return mat
+
+
+def _paint_skin(obj, rig) -> bool:
+    """Brows and lips painted onto a generated skin (``face.appearance``); False when the rig's skin nodes
+    are not this mesh's vertices (nothing is changed then)."""
+    skin = getattr(getattr(rig, "template", None), "skin", None)
+    mesh = obj.data
+    if skin is None or len(skin.vertices) != len(mesh.vertices):
+        return False
+    rgba = np.ones((len(mesh.vertices), 4), np.float32)
+    rgba[:, :3] = skin_colours(skin)
+    attribute = mesh.color_attributes.new(PAINT_ATTRIBUTE, "FLOAT_COLOR", "POINT")
+    attribute.data.foreach_set("color", rgba.ravel())
+    mesh.color_attributes.active_color = attribute
+    mesh.color_attributes.render_color_index = list(mesh.color_attributes).index(attribute)
+    mesh.materials.append(_painted_skin_material())
+    return True
 
 
 def _assign_materials(obj, labels, face_material) -> None:
@@ -108,7 +143,8 @@ def create_rig_objects(context, rig, name: str = "FH Head", skin_obj=None):
                                 getattr(rig, "skin_uvs", None))
         skin_obj = bpy.data.objects.new(name, mesh)
         collection.objects.link(skin_obj)
-        _assign_materials(skin_obj, ("skin",), np.zeros(len(rig.faces)))
+        if not _paint_skin(skin_obj, rig):
+            _assign_materials(skin_obj, ("skin",), np.zeros(len(rig.faces)))
     else:
         collection.objects.link(skin_obj)
     for bone, (vertices, faces) in rig.bone_meshes().items():

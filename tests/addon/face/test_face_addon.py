@@ -49,6 +49,13 @@ def test_build_default_rig_objects_and_controls(bpy_clean):
     for name in ("zygomaticus_major_L", "orbicularis_oris_upper", "jaw_open", "eyelid_close_R"):
         assert f"fh.ctrl.{name}" in rig.keys()
     assert rig.data.shape_keys is None, "building must not add shape keys to the skin"
+    # brows and lips painted on the generated skin, shown by its material and by Workbench renders
+    paint = rig.data.color_attributes["FH Skin Paint"]
+    colours = np.zeros(len(rig.data.vertices) * 4, np.float32)
+    paint.data.foreach_get("color", colours)
+    assert colours.reshape(-1, 4)[:, :3].sum(axis=1).min() < 0.1 < np.median(colours.reshape(-1, 4)[:, 0])
+    shader = rig.data.materials[0].node_tree.nodes["Principled BSDF"]
+    assert shader.inputs["Base Color"].links[0].from_node.attribute_name == "FH Skin Paint"
 
 
 def test_live_step_moves_only_the_simulation_key(bpy_clean):
@@ -113,6 +120,8 @@ def test_bake_expressions_export_glb_and_reimport(bpy_clean, tmp_path):
     doc = _glb_json(out)
     target_names = [m.get("extras", {}).get("targetNames") for m in doc["meshes"]]
     assert names in target_names
+    skin = doc["meshes"][target_names.index(names)]
+    assert all("COLOR_0" in p["attributes"] for p in skin["primitives"]), "the painted brows and lips are lost"
     bpy.ops.wm.read_homefile(use_empty=True)
     bpy.ops.import_scene.gltf(filepath=str(out))
     imported = [o for o in bpy.data.objects if o.type == "MESH" and o.data.shape_keys
