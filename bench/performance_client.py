@@ -151,6 +151,44 @@ def measure(path: Path):
     return glb, got, times, pitch, brow, closure
 
 
+def eye_gaze(glb, times: np.ndarray) -> dict[str, np.ndarray]:
+    """Each eye's (yaw, pitch) in degrees ((Out - In, Up - Down) weights x the targets' turn) over ``times``, from the eye
+    nodes' own weights channels in the file: the eyes between the gestures ("eyes alive between")."""
+    gaze = {}
+    for index, node in enumerate(glb.gltf["nodes"]):
+        name = node.get("name", "")
+        if "mesh" not in node or not name.endswith(("Eye L", "Eye R")):
+            continue
+        side = "Left" if name.endswith("L") else "Right"
+        targets = glb.gltf["meshes"][node["mesh"]].get("extras", {}).get("targetNames", [])
+        keys, values, interpolation = client.weights_channel(glb, None, index)
+        w = client.weights_at(keys, values, interpolation, times)
+        pick = {n: w[:, targets.index(f"eyeLook{n}{side}")] for n in ("Out", "In", "Up", "Down")}
+        gaze[side] = np.column_stack([pick["Out"] - pick["In"], pick["Up"] - pick["Down"]])
+        gaze[side] *= [eye_degrees(glb, node["mesh"], targets.index(f"eyeLook{n}{side}")) for n in ("Out", "Up")]
+    return gaze
+
+
+def eye_degrees(glb, mesh: int, target: int) -> float:
+    """The eyeball's turn (degrees) at weight 1 of ``target``: the largest vertex displacement of that target
+    as a chord of the eyeball (radius: half the eye mesh's extent)."""
+    primitive = glb.gltf["meshes"][mesh]["primitives"][0]
+    base = glb.accessor(primitive["attributes"]["POSITION"])
+    moved = np.linalg.norm(glb.accessor(primitive["targets"][target]["POSITION"]), axis=1).max()
+    radius = 0.5 * np.ptp(base, axis=0).max()
+    return float(np.degrees(2 * np.arcsin(min(moved / (2 * radius), 1.0))))
+
+
+def gaze_moves(gaze: np.ndarray, times: np.ndarray, step: float = 0.03) -> tuple[int, float]:
+    """(gaze shifts: runs of movement faster than ``step`` degrees per 10 ms, the longest still stretch s)."""
+    speed = np.linalg.norm(np.diff(gaze, axis=0), axis=1) / np.diff(times) * 0.01
+    moving = np.concatenate([[False], speed > step])
+    shifts = runs(moving, times)
+    onsets = [a for a, _ in shifts]
+    still = np.diff([0.0, *onsets, float(times[-1])]).max() if len(times) else 0.0
+    return len(shifts), float(still)
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--glb", type=Path, help="measure this GLB (of the same text and seed) instead of speaking")
@@ -217,13 +255,20 @@ def main() -> int:
         for a, b in winks[side]:
             print(f"  wink {side}: closed {a:.2f}-{b:.2f} s")
     print(f"  longest stretch without a blink (incl. start and end): {gaps.max():.2f} s (rule: 4.8 s)")
+    gaze = eye_gaze(glb, times)
+    for side, g in gaze.items():
+        shifts, still = gaze_moves(g, times)
+        steps = np.abs(np.diff(g[::20], axis=0)).max(axis=1)          # 0.1-s steps
+        print(f"  eye {side}: {shifts} gaze shifts, range yaw {np.ptp(g[:, 0]):.1f} / pitch {np.ptp(g[:, 1]):.1f} deg, "
+              f"largest 0.1-s step {steps.max():.1f} deg, longest still stretch {still:.2f} s")
+    shifts, still = gaze_moves(gaze["Left"], times) if "Left" in gaze else (0, float("nan"))
     wink_count = len(winks["L"]) + len(winks["R"])
     print(f"\nRESULT word={args.word} head_word_deg={pitch[inside].max() - pitch[0]:.2f} "
           f"planned_head_word_deg={max((np.degrees(e.params['pitch_rad']) for e in raises), default=0):.2f} "
           f"brow_word_mm={max(at_word[args.word.lower()][1:]):.2f} head_max_deg={pitch.max() - pitch[0]:.2f} "
           f"blinks_file={len(blinks)} blinks_planned={len(planned_blinks)} "
           f"blink_onset_err_ms_max={np.nanmax(np.abs(offsets)) if offsets else float('nan'):.0f} "
-          f"max_blink_gap_s={gaps.max():.2f} winks={wink_count}")
+          f"max_blink_gap_s={gaps.max():.2f} winks={wink_count} gaze_shifts={shifts} gaze_still_max_s={still:.2f}")
     return 0
 
 

@@ -28,7 +28,7 @@ import bpy  # noqa: E402
 import numpy as np  # noqa: E402
 
 FOV_DEG = 20.0
-FRONT_DISTANCE = 0.42      # m: the front panel shows about 150 mm of the upper face
+FRONT_DISTANCE = 0.62      # m: the front panel shows about 220 mm: the whole face
 SIDE_DISTANCE = 0.75
 CELL = (900, 450)          # one time step: front | side, each 450 x 450 px
 DARK_FRACTION = 0.45       # brow pixels: darker than this fraction of the skin's median grey
@@ -98,11 +98,16 @@ def main() -> int:
     parser.add_argument("--out", type=Path, help="folder for the strip PNG")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--word", default="conference")
+    parser.add_argument("--times", help="comma-separated times (s) instead of the word's span; the first is "
+                                        "the reference frame")
     args = parser.parse_args()
     out = args.out or Path(tempfile.mkdtemp(prefix="fh-strip-"))
     out.mkdir(parents=True, exist_ok=True)
     utterance, events = performance.planned(args.seed, performance.TEXT)
     reference, times, span = strip_times(utterance, events, args.word)
+    if args.times:
+        reference, *times = (float(t) for t in args.times.split(","))
+        span = (times[0], times[-1])
     with tempfile.TemporaryDirectory(prefix="fh-strip-work-") as tmp:
         path = args.glb or Path(tmp) / "performance.glb"
         if args.glb is None:
@@ -111,8 +116,8 @@ def main() -> int:
         skin = client.Skin(glb)
         picked = performance.picked_vertices(skin)
         brows = skin.rest(np.array([v for k, v in picked.items() if k.startswith("brow")]))
-        target = brows.mean(axis=0) - np.array([0.0, 0.02, 0.0])      # glTF y-up: a little below the brows
         head = skin.rest(np.arange(len(skin.base))).mean(axis=0)
+        target = np.array([head[0], (brows[:, 1].mean() + head[1]) / 2 - 0.02, brows[:, 2].mean()])
         views = [{"yaw": 0.0, "target": target.tolist(), "distance": FRONT_DISTANCE, "fov": FOV_DEG},
                  {"yaw": math.pi / 2, "target": head.tolist(), "distance": SIDE_DISTANCE, "fov": FOV_DEG}]
         all_times = [reference] + times
@@ -145,7 +150,7 @@ def main() -> int:
     strip = np.concatenate([np.concatenate(cells[i:i + 2], axis=1) if i + 1 < len(cells)
                             else np.concatenate([cells[i], np.zeros_like(cells[i])], axis=1)
                             for i in range(0, len(cells), 2)], axis=0)
-    png = out / f"strip_{args.word}.png"
+    png = out / f"strip_{'times' if args.times else args.word}.png"
     write_png(png, strip)
     print(f"wrote {png} (cells in rows of two, left to right: reference, then {', '.join(f'{t:.2f}' for t in times)} s)")
     print(f"RESULT word={args.word} brow_rise_px_mm_max={np.nanmax(rises):.2f} "

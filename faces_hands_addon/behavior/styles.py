@@ -58,7 +58,7 @@ class CharacterStyle:
     thinking_frown_probability: float = 0.25
     thinking_look_up: float = 0.45
     thinking_look_down: float = 0.4
-    thinking_right: float = 0.15
+    thinking_right: float = 0.2
     thinking_brow: float = 0.4
     thinking_frown: float = 0.3
     thinking_head_deg: float = 1.5
@@ -66,8 +66,8 @@ class CharacterStyle:
     avert_yaw: float = 0.22
     avert_pitch: float = 0.06
     speaker_state_turn_deg: float = 5.0
-    gaze_jitter: float = 0.035
-    gaze_jitter_step: float = 0.025
+    gaze_jitter: float = 0.07
+    gaze_jitter_step: float = 0.045
     gaze_jitter_min_s: float = 0.35
     gaze_jitter_max_s: float = 0.9
     saccade_s: float = 0.05

@@ -9,7 +9,7 @@ import pytest
 
 from behavior_utterances import neutral_runs  # noqa: F401  (fixtures)
 
-JITTER = 0.035 + 1e-6        # the neutral style's jitter range (eye_yaw / eye_pitch units)
+JITTER = 0.07 + 1e-6         # the neutral style's jitter range (eye_yaw / eye_pitch units)
 
 
 def _at(result, name, time):
@@ -96,9 +96,9 @@ def test_gaze_jitter_is_small_and_never_erratic(neutral_runs):
         jitter = r.of_kind("gaze_jitter")
         assert len(jitter) > u.duration / 0.9 - 2
         offsets = np.array([(e.params["yaw"], e.params["pitch"]) for e in jitter])
-        assert np.abs(offsets).max() <= 0.035 + 1e-12
+        assert np.abs(offsets).max() <= 0.07 + 1e-12
         steps = np.abs(np.diff(np.vstack([[0.0, 0.0], offsets]), axis=0))
-        assert steps.max() <= 0.025 + 1e-12
+        assert steps.max() <= 0.045 + 1e-12
         assert 0.35 - 1e-9 <= np.diff([e.start for e in jitter]).min()
         for e in jitter:
             assert not any(s.start < e.start < s.end for s in u.accented_syllables)
