@@ -22,6 +22,31 @@ def _style_items(self, context):
     return _style_items.cache
 
 
+def _emotion_word_items(self, context):
+    """Table 4.4's words for the emotion picker, after "Custom" (the sliders' own point)."""
+    from ..faces_hands_addon.emotion import load_words
+    try:
+        words = sorted(load_words())
+    except Exception:  # a broken user preset must not break the panel; Set Emotion reports it
+        words = []
+    _emotion_word_items.cache = [("CUSTOM", "Custom", "The point of the Activation and Evaluation sliders")] + [
+        (w, w.replace("_", " ").title(), f"'{w}' from the emotion table (Table 4.4)") for w in words]
+    return _emotion_word_items.cache
+
+
+def _emotion_word_chosen(self, context):
+    """A word puts the sliders on its point (set directly, so the sliders' own update does not run)."""
+    from ..faces_hands_addon.emotion import load_words
+    point = load_words().get(self.emotion_word) if self.emotion_word != "CUSTOM" else None
+    if point is not None:
+        self["emotion_activation"], self["emotion_evaluation"] = point.activation, point.evaluation
+
+
+def _emotion_point_moved(self, context):
+    """Moving a slider leaves the word's point: the menu shows "Custom"."""
+    self["emotion_word"] = 0
+
+
 class FH_SceneSettings(bpy.types.PropertyGroup):
     """Faces & Hands settings stored in the .blend file"""
 
@@ -53,6 +78,16 @@ class FH_SceneSettings(bpy.types.PropertyGroup):
         name="Emotion", default="",
         description="An emotion for the whole take, in face and voice: a word (joy, fear, anxiety, ...) or "
                     "activation,evaluation such as 50,-20 (empty: only the emoticons' emotions)")
+    emotion_word: bpy.props.EnumProperty(
+        name="Emotion Word", items=_emotion_word_items, update=_emotion_word_chosen,
+        description="An emotion word of the table (thesis Table 4.4): puts the point on the disk at its "
+                    "activation and evaluation")
+    emotion_activation: bpy.props.FloatProperty(
+        name="Activation", default=50.0, min=-100.0, max=100.0, update=_emotion_point_moved,
+        description="Vertical axis of the emotion disk: passive (-100) to active (+100)")
+    emotion_evaluation: bpy.props.FloatProperty(
+        name="Evaluation", default=50.0, min=-100.0, max=100.0, update=_emotion_point_moved,
+        description="Horizontal axis of the emotion disk: negative (-100) to positive (+100)")
     audio_path: bpy.props.StringProperty(name="Audio", subtype="FILE_PATH",
                                          description="Recorded speech: WAV, FLAC or OGG, any rate")
     audio_transcript: bpy.props.StringProperty(

@@ -1,9 +1,12 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Speech sub-panel: text-to-speech and recorded-audio lip sync. Only draws."""
+"""Speech sub-panel: text-to-speech and recorded-audio lip sync, and the emotion picker. Only draws."""
 from __future__ import annotations
 
 import bpy
 
+from ..faces_hands_addon.core.errors import UserError
+from ..faces_hands_addon.emotion.disk import strongest_controls
+from ..operators.speech import emotion as picker
 from .base import ROOT, SidebarPanel
 
 
@@ -54,4 +57,42 @@ class FH_PT_speech(SidebarPanel, bpy.types.Panel):
             layout.operator("faces_hands.export_mouth_cues", icon="EXPORT")
 
 
-CLASSES = [FH_PT_speech]
+class FH_PT_emotion(SidebarPanel, bpy.types.Panel):
+    """The emotion picker: a point on the activation-evaluation disk (thesis 4.4.1) and its expression"""
+
+    bl_label = "Emotion"
+    bl_idname = "FH_PT_emotion"
+    bl_parent_id = "FH_PT_speech"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        layout = self.layout
+        settings = context.scene.faces_hands
+        layout.prop(settings, "emotion_word", text="")
+        col = layout.column(align=True)
+        col.prop(settings, "emotion_activation", slider=True)
+        col.prop(settings, "emotion_evaluation", slider=True)
+        try:
+            icon = picker.disk_icon(settings)
+            values = picker.picker_expression(settings)
+        except UserError as error:
+            layout.label(text=str(error), icon="ERROR")
+            return
+        layout.template_icon(icon_value=icon, scale=8.0)
+        point = picker.picker_point(settings)
+        layout.label(text=f"Angle {point.angle:.0f} deg, intensity {min(point.radius, 100):.0f} of 100")
+        box = layout.box()
+        strongest = strongest_controls(values)
+        if not strongest:
+            box.label(text="Neutral: no expression")
+        for name, value in strongest:
+            row = box.row()
+            row.label(text=name.replace("_", " "))
+            row.label(text=f"{value:.2f}")
+        row = layout.row(align=True)
+        row.operator("faces_hands.set_emotion", icon="SHAPEKEY_DATA")
+        row.operator("faces_hands.set_emotion", text="Key", icon="KEY_HLT").key = True
+        layout.operator("faces_hands.use_emotion_for_speech", icon="PLAY_SOUND")
+
+
+CLASSES = [FH_PT_speech, FH_PT_emotion]

@@ -26,6 +26,7 @@ class _Registered:
     timers: list = field(default_factory=list)
     cli_handles: list = field(default_factory=list)
     menus: list = field(default_factory=list)       # (menu type, draw function)
+    cleanups: list = field(default_factory=list)    # functions called at unregister (e.g. free previews)
 
 
 _done = _Registered()
@@ -79,6 +80,13 @@ def add_timer(function: Callable[[], float | None], first_interval: float = 0.0)
     _done.timers.append(function)
 
 
+def on_unregister(function: Callable[[], None]) -> None:
+    """Call ``function`` once when the extension is unregistered (resources made on demand, such as icon
+    previews); registering the same function twice calls it once."""
+    if function not in _done.cleanups:
+        _done.cleanups.append(function)
+
+
 def remove_timer(function) -> None:
     if bpy.app.timers.is_registered(function):
         bpy.app.timers.unregister(function)
@@ -87,6 +95,8 @@ def remove_timer(function) -> None:
 
 
 def unregister_all() -> None:
+    for function in reversed(_done.cleanups):
+        function()
     for handle in reversed(_done.cli_handles):
         bpy.utils.unregister_cli_command(handle)
     for function in reversed(_done.timers):
