@@ -25,7 +25,8 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out-dir", required=True)
     parser.add_argument("--size", default="700x800")
-    parser.add_argument("--names", help="comma-separated expression names (default: the audit's picks)")
+    parser.add_argument("--names", help="expression names, emotion words (Table 4.4) or activation,evaluation "
+                                           "points, separated by ';' (default: the audit's picks)")
     parser.add_argument("--blend", help="a .blend with a face rig (default: the default head)")
     parser.add_argument("--columns", type=int, default=4)
     parser.add_argument("--prefix", default="cells")
@@ -37,8 +38,12 @@ def main() -> int:
     for name in ("arkit", "visemes", "named"):
         expressions.update(services.expressions(name))
     obj = services.rig_object(args.blend) if args.blend else services.build_default_rig_object()
-    names = args.names.split(",") if args.names else CELLS
-    cells = [(n, {} if n == "neutral" else expressions[n]) for n in names]
+    names = args.names.split(";") if args.names else CELLS
+    emotion = importlib.import_module(f"{ext.__name__}.faces_hands_addon.emotion")
+    # a name that is no expression preset is an emotion word of Table 4.4 (its 4.4.3 expression) or "a,e"
+    cells = [(n, {} if n == "neutral" else expressions[n] if n in expressions else
+              emotion.expression_for(n if "," not in n else [float(v) for v in n.split(",")]))
+             for n in names]
     width, height = (int(v) for v in args.size.split("x"))
     out = Path(args.out_dir)
     out.mkdir(parents=True, exist_ok=True)
