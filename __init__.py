@@ -20,6 +20,7 @@ def register():
         properties=panels.PROPERTIES,
         handlers=operators.HANDLERS,
         menus=panels.MENUS,
+        cleanups=panels.CLEANUPS,
         cli_commands=[("faces_hands", cli.blender_cli_entry)],
     )
     configure_presets(__package__)

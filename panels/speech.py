@@ -6,7 +6,7 @@ import bpy
 
 from ..faces_hands_addon.core.errors import UserError
 from ..faces_hands_addon.emotion.disk import strongest_controls
-from ..operators.speech import emotion as picker
+from . import emotion_picker as picker
 from .base import ROOT, SidebarPanel
 
 

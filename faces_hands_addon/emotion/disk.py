@@ -13,7 +13,10 @@ import numpy as np
 
 from .words import DISK_RADIUS, EmotionPoint
 
-__all__ = ["disk_image", "strongest_controls"]
+__all__ = ["disk_image", "strongest_controls", "picked_point", "CUSTOM"]
+
+#: the picker's menu entry for "no word: the sliders' own point"
+CUSTOM = "CUSTOM"
 
 BACKGROUND = (0.16, 0.16, 0.16, 1.0)
 DISK = (0.24, 0.24, 0.26, 1.0)
@@ -80,3 +83,9 @@ def strongest_controls(values: dict[str, float], count: int = 6) -> list[tuple[s
     """The ``count`` controls of an expression with the largest magnitude, largest first (ties by name)."""
     ranked = sorted(values.items(), key=lambda item: (-abs(item[1]), item[0]))
     return [(name, float(value)) for name, value in ranked[:count] if value != 0.0]
+
+
+def picked_point(word: str, activation: float, evaluation: float) -> EmotionPoint:
+    """The picker's point: its sliders' activation and evaluation, named by ``word`` unless that is
+    :data:`CUSTOM` (the sliders were moved off the word's point)."""
+    return EmotionPoint(float(activation), float(evaluation), word="" if word == CUSTOM else str(word))

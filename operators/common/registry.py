@@ -52,10 +52,12 @@ def _describe(cls) -> None:
         cls.bl_description = one_line(own)
 
 
-def register_all(classes, properties=(), handlers=(), cli_commands=(), menus=()) -> None:
+def register_all(classes, properties=(), handlers=(), cli_commands=(), menus=(), cleanups=()) -> None:
     """Register ``classes`` (in order), then attach ``properties`` = [(owner, name, property)], then
     append ``menus`` = [(menu type name, draw function)], ``handlers`` = [(handler list name, function)] and
-    ``cli_commands`` = [(name, fn)]."""
+    ``cli_commands`` = [(name, fn)]; ``cleanups`` are called at unregister (resources made on demand, such
+    as icon previews)."""
+    _done.cleanups.extend(cleanups)
     for cls in classes:
         _check_idname(cls)
         _describe(cls)
@@ -78,13 +80,6 @@ def add_timer(function: Callable[[], float | None], first_interval: float = 0.0)
     """Start a timer that :func:`unregister_all` is sure to stop."""
     bpy.app.timers.register(function, first_interval=first_interval)
     _done.timers.append(function)
-
-
-def on_unregister(function: Callable[[], None]) -> None:
-    """Call ``function`` once when the extension is unregistered (resources made on demand, such as icon
-    previews); registering the same function twice calls it once."""
-    if function not in _done.cleanups:
-        _done.cleanups.append(function)
 
 
 def remove_timer(function) -> None:

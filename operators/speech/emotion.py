@@ -1,73 +1,23 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""The emotion picker (thesis 4.4.1, 4.4.3): a point on the activation-evaluation disk, from a word of
-Table 4.4 or two sliders, shown as a disk icon with the resulting expression; Set Emotion writes that
-expression into the face rig's emotion layer, Use for Speech hands the point to Animate Speech."""
+"""The emotion picker's operators (thesis 4.4.1, 4.4.3; the panel is ``panels/emotion_picker``): Set Emotion
+writes the expression of the picker's point into the face rig's Emotion layer, Use for Speech hands the
+point to Animate Speech."""
 from __future__ import annotations
 
 import bpy
 
 from ...faces_hands_addon.core.errors import UserError
 from ...faces_hands_addon.emotion import EmotionPoint, expression_for, load_model
-from ...faces_hands_addon.emotion.disk import disk_image, strongest_controls
+from ...faces_hands_addon.emotion.disk import picked_point
 from ..common import controls, fcurves
 from ..common.hardened import HardenedOperator
-from ..common.registry import on_unregister
 from ..common.rig_store import is_rig, rig_of
 
-__all__ = ["CLASSES", "picker_point", "picker_expression", "disk_icon", "disk_preview",
-           "CUSTOM"]
-
-CUSTOM = "CUSTOM"
-ICON_SIZE = 128
-_previews = {"collection": None, "key": None, "model": None}
-
-
-def _model(fresh: bool = False):
-    """The emotion model; the panel reuses one read of the presets, the operators read them afresh (so an
-    edited preset counts)."""
-    if fresh or _previews.get("model") is None:
-        _previews["model"], _previews["key"] = load_model(), None
-    return _previews["model"]
+__all__ = ["CLASSES", "picker_point"]
 
 
 def picker_point(settings) -> EmotionPoint:
-    word = settings.emotion_word if settings.emotion_word != CUSTOM else ""
-    return EmotionPoint(float(settings.emotion_activation), float(settings.emotion_evaluation), word=word)
-
-
-def picker_expression(settings) -> dict[str, float]:
-    """The face control values of the picker's point (Eqs. 4.6-4.10)."""
-    return expression_for(picker_point(settings), _model())
-
-
-def _free_previews() -> None:
-    if _previews["collection"] is not None:
-        bpy.utils.previews.remove(_previews["collection"])
-    _previews.update(collection=None, key=None, model=None)
-
-
-def disk_icon(settings) -> int:
-    """The icon id of the disk showing the picker's point (0 in background mode, where Blender makes no
-    icons; the preview's pixels are there all the same)."""
-    return disk_preview(settings).icon_id
-
-
-def disk_preview(settings):
-    """The preview holding the disk picture of the picker's point (redrawn only when the point changed)."""
-    import bpy.utils.previews
-    if _previews["collection"] is None:
-        _previews["collection"] = bpy.utils.previews.new()
-        on_unregister(_free_previews)
-    collection = _previews["collection"]
-    preview = collection.get("disk") or collection.new("disk")
-    key = (round(settings.emotion_activation, 3), round(settings.emotion_evaluation, 3))
-    if _previews["key"] != key:
-        model = _model()
-        image = disk_image(model.words, tuple(b.word for b in model.basics), picker_point(settings), ICON_SIZE)
-        preview.image_size = (ICON_SIZE, ICON_SIZE)
-        preview.image_pixels_float = image[::-1].ravel()          # Blender's rows run from the bottom
-        _previews["key"] = key
-    return preview
+    return picked_point(settings.emotion_word, settings.emotion_activation, settings.emotion_evaluation)
 
 
 def _emotion_animated(obj) -> bool:
@@ -96,7 +46,7 @@ class FH_OT_set_emotion(HardenedOperator, bpy.types.Operator):
         if not is_rig(obj, "face"):
             raise UserError("select a Faces & Hands face rig (build one with 'Build Face Rig')")
         settings = context.scene.faces_hands
-        model = _model(fresh=True)
+        model = load_model()                 # read afresh: an edited preset counts
         values = expression_for(picker_point(settings), model)
         names = sorted(set(model.specs) | set(values))
         missing = [n for n in names if controls.prop_name(n, "emotion") not in obj.keys()]

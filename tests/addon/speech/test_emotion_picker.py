@@ -28,7 +28,7 @@ def test_word_point_expression_and_set_emotion(bpy_clean):
     assert (settings.emotion_activation, settings.emotion_evaluation) == pytest.approx(
         (point.activation, point.evaluation), abs=1e-4)
     expected = emotion.expression_for("anxiety")
-    picker = addon_module("operators.speech.emotion")
+    picker = addon_module("panels.emotion_picker")
     assert picker.picker_expression(settings) == pytest.approx(expected, abs=1e-5)
     preview = picker.disk_preview(settings)
     assert tuple(preview.image_size) == (128, 128)
@@ -62,3 +62,33 @@ def test_set_emotion_without_a_face_rig_is_refused(bpy_clean):
     with pytest.raises(user_error, match="face rig"):
         cls.run(type("Op", (), {"key": False, "report": lambda *a: None})(), bpy.context)
     assert set(cube.keys()) == keys
+
+
+class _Layout:
+    """A recording stand-in layout (the bpy module has no UI)."""
+
+    def __init__(self, log):
+        self.log = log
+
+    def __getattr__(self, name):
+        def call(*args, **kwargs):
+            self.log.append((name, args, kwargs))
+            return _Layout(self.log)
+        return call
+
+
+def test_emotion_panel_draws_the_disk_the_expression_and_the_operators(bpy_clean):
+    bpy = bpy_clean
+    settings = bpy.context.scene.faces_hands
+    settings.emotion_word = "joy"
+    log = []
+    bpy.types.FH_PT_emotion.draw(type("Panel", (), {"layout": _Layout(log)})(), bpy.context)
+    calls = [c[0] for c in log]
+    assert "template_icon" in calls
+    labels = [c[2].get("text", "") for c in log if c[0] == "label"]
+    assert any(label.startswith("Angle 22 deg") for label in labels), labels
+    values = addon_module("faces_hands_addon.emotion").expression_for("joy")
+    top = max(abs(v) for v in values.values())
+    assert any(k.replace("_", " ") in labels for k, v in values.items() if abs(v) == top)
+    ops = [c[1][0] for c in log if c[0] == "operator"]
+    assert ops.count("faces_hands.set_emotion") == 2 and "faces_hands.use_emotion_for_speech" in ops
