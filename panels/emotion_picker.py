@@ -23,7 +23,8 @@ def _model():
 
 
 def picker_point(settings) -> EmotionPoint:
-    return picked_point(settings.emotion_word, settings.emotion_activation, settings.emotion_evaluation)
+    return picked_point(settings.emotion_word, settings.emotion_activation, settings.emotion_evaluation,
+                        _model().words)
 
 
 def picker_expression(settings) -> dict[str, float]:

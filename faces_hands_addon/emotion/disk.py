@@ -85,7 +85,11 @@ def strongest_controls(values: dict[str, float], count: int = 6) -> list[tuple[s
     return [(name, float(value)) for name, value in ranked[:count] if value != 0.0]
 
 
-def picked_point(word: str, activation: float, evaluation: float) -> EmotionPoint:
-    """The picker's point: its sliders' activation and evaluation, named by ``word`` unless that is
-    :data:`CUSTOM` (the sliders were moved off the word's point)."""
+def picked_point(word: str, activation: float, evaluation: float,
+                 words: dict[str, EmotionPoint] | None = None) -> EmotionPoint:
+    """The picker's point: the table's own point of ``word`` (exact, unlike the sliders' single precision)
+    when ``words`` has it, else the sliders' activation and evaluation (``word`` :data:`CUSTOM`: the
+    sliders were moved off the word's point)."""
+    if words is not None and word in words:
+        return words[word]
     return EmotionPoint(float(activation), float(evaluation), word="" if word == CUSTOM else str(word))

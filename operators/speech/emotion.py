@@ -16,8 +16,8 @@ from ..common.rig_store import is_rig, rig_of
 __all__ = ["CLASSES", "picker_point"]
 
 
-def picker_point(settings) -> EmotionPoint:
-    return picked_point(settings.emotion_word, settings.emotion_activation, settings.emotion_evaluation)
+def picker_point(settings, words=None) -> EmotionPoint:
+    return picked_point(settings.emotion_word, settings.emotion_activation, settings.emotion_evaluation, words)
 
 
 def _emotion_animated(obj) -> bool:
@@ -47,7 +47,7 @@ class FH_OT_set_emotion(HardenedOperator, bpy.types.Operator):
             raise UserError("select a Faces & Hands face rig (build one with 'Build Face Rig')")
         settings = context.scene.faces_hands
         model = load_model()                 # read afresh: an edited preset counts
-        values = expression_for(picker_point(settings), model)
+        values = expression_for(picker_point(settings, model.words), model)
         names = sorted(set(model.specs) | set(values))
         missing = [n for n in names if controls.prop_name(n, "emotion") not in obj.keys()]
         if len(missing) == len(names):
