@@ -63,6 +63,8 @@ TARGETS = {
     "pinch": ("thumb and index tips meet", {**finger("index", 71, 105, 78, -3), **finger("middle", 25, 30, 15, 3),
                                              **finger("ring", 25, 30, 15, 5), **finger("pinky", 25, 30, 15, 15),
                                              **thumb(2, -22, 30, 90)}),
+    # poses.json adds abductor_digiti_minimi 0.3 by hand: Solve Contractions leaves it out (it also flexes the
+    # MCP joint) and the little finger stayed by the ring finger (abduction 0.4 degrees; with it 15)
     "spread": ("fingers straight and spread apart", {**finger("index", 0, 0, 0, 25), **finger("middle", 0, 0, 0, 0),
                                                      **finger("ring", 0, 0, 0, 12), **finger("pinky", 0, 0, 0, 14),
                                                      **thumb(-15, 15, -5, 0)}),
