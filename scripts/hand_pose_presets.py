@@ -59,7 +59,7 @@ TARGETS = {
     # curled at the PIP and DIP joints (a tip pinch); searched for pads that touch and face each other and a
     # small torque residual of Solve Contractions (the extensor pollicis brevis that an extended CMC joint
     # needs also extends the MCP joint, so targets with the CMC extended were not reached). Before: thumb
-    # flexed across the palm (CMC 45, MCP 20, IP 15), index (45, 55, 25): the tips stayed 44 mm apart (skins 28 mm), now 4 mm
+    # flexed across the palm (CMC 45, MCP 20, IP 15), index (45, 55, 25): the tips stayed 44 mm apart (skins 28 mm), now 4.3 mm
     "pinch": ("thumb and index tips meet", {**finger("index", 71, 105, 78, -3), **finger("middle", 25, 30, 15, 3),
                                              **finger("ring", 25, 30, 15, 5), **finger("pinky", 25, 30, 15, 15),
                                              **thumb(2, -22, 30, 90)}),

@@ -19,8 +19,8 @@ of the closest points: a finger that crossed over is pushed back to its own side
 Where a pair is too close, both fingers' MCP abductions and rotations turn by the smallest amounts that
 restore it: the lateral distance changes by ``u . (w x (p - c)) dtheta`` for a finger turned about the DOF's
 axis ``w`` through its MCP centre ``c`` (a curled finger's tip lies near its abduction axis, so only the
-rotation, which tilts the curl, moves it sideways); within the Table 6.4 limits, a few Gauss-Seidel sweeps
-per frame. A finger's abduction speed into the contact is removed (as at a joint limit); the rotation
+rotation, which tilts the curl, moves it sideways); within the Table 6.4 limits, all pairs at once, a few
+linearised sweeps per frame. A finger's abduction speed into the contact is removed (as at a joint limit); the rotation
 follows flexion again in the next frame (:mod:`.pseudo`) and is corrected again. Deterministic; no other
 DOF moves; ``enabled = False`` leaves the muscles alone (Solve Contractions' checks balance muscles only).
 """
@@ -36,10 +36,18 @@ __all__ = ["FingerContact", "SPACING", "BASE", "CONTACT_FINGERS"]
 SPACING = 0.98           # neighbouring phalanx axes at least this share of their MCP joints' distance apart
 BASE = 0.4               # the proximal phalanx's first 40 % lie in the web, where the MCP spacing decides
 CONTACT_FINGERS = ("index", "middle", "ring", "pinky")
-SWEEPS = 24
+SWEEPS = 6
+TOLERANCE = 2e-4         # m of shortfall left alone (a fifth of a millimetre)
+SETTLED = 1e-3           # m: after a first sweep, shortfalls below a millimetre wait for the next frame
 REACH = 1.5              # samples further apart than this many contact distances do not touch
-MAX_TURN = np.radians(6.0)   # per sweep, so a deep overlap resolves over a few sweeps without overshooting
+MAX_TURN = np.radians(6.0)   # per sweep: a deep overlap resolves over a few sweeps, the linearisation holds
 PARTS = ("proximal", "intermediate", "distal")
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a x b`` for (..., 3) arrays (``np.cross`` costs more than the arithmetic for a handful of vectors)."""
+    return np.stack([a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1], a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2],
+                     a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]], axis=-1)
 
 
 class FingerContact:
@@ -105,38 +113,53 @@ class FingerContact:
             out.append(np.min(np.where(np.linalg.norm(between, axis=1) < REACH * self.distance[f], lateral, np.inf)))
         return np.minimum(np.array(out), self.distance)
 
+    def _rows(self, angles: np.ndarray):
+        """The pairs that are too close: (shortfalls (P,), Jacobian (P, 2 x fingers) of their side-by-side
+        distances over every finger's MCP abduction and rotation)."""
+        transforms, points, ulnar = self._sides(angles)
+        between = points[1:] - points[:-1]                   # matching samples: same bone, same fraction
+        lateral = np.einsum("psi,pi->ps", between, ulnar)
+        lateral[np.einsum("psi,psi->ps", between, between) >= (REACH * self.distance[:, None]) ** 2] = np.inf
+        worst = np.argmin(lateral, axis=1)
+        pairs = np.arange(len(between))
+        shorts = self.distance - lateral[pairs, worst]
+        close = np.flatnonzero(shorts > TOLERANCE)
+        if len(close) == 0:
+            return shorts[close], np.zeros((0, 2 * len(points)))
+        axes, centres = self._axes(transforms, angles)
+        rows = np.zeros((len(close), 2 * len(points)))
+        for r, a in enumerate(close):
+            for finger, sign in ((a, -1.0), (a + 1, 1.0)):
+                lever = _cross(axes[finger], points[finger][worst[a]] - centres[finger])
+                rows[r, 2 * finger:2 * finger + 2] = sign * (lever @ ulnar[a])
+        return shorts[close], rows
+
     def resolve(self) -> bool:
-        """Push touching fingers apart (module docstring); True if any joint was turned."""
-        pseudo, moved, angles = self.pseudo, False, self.pseudo.angles
+        """Push touching fingers apart (module docstring); True if any joint was turned. Each sweep solves
+        the linearised contacts of all pairs at once: the smallest turn ``J^T lambda`` with ``lambda >= 0``
+        that restores every shortfall, DOFs held at a limit taken out."""
+        pseudo, moved, angles, dofs = self.pseudo, False, self.pseudo.angles, self._flat_dofs.ravel()
         for _ in range(SWEEPS if self.enabled else 0):
-            transforms, points, ulnar = self._sides(angles)
-            axes, centres = None, None
-            turned = False
-            for a in range(len(points) - 1):
-                between = points[a + 1] - points[a]             # matching samples: same bone, same fraction
-                lateral = between @ ulnar[a]
-                lateral[np.linalg.norm(between, axis=1) >= REACH * self.distance[a]] = np.inf   # apart (palm-wards)
-                i = int(np.argmin(lateral))
-                short = self.distance[a] - lateral[i]
-                if short <= 1e-5:
-                    continue
-                if axes is None:
-                    axes, centres = self._axes(transforms, angles)
-                rows = []
-                for finger, sign in ((a, -1.0), (a + 1, 1.0)):
-                    rows.extend(sign * (np.cross(axes[finger], points[finger][i] - centres[finger]) @ ulnar[a]))
-                jac = np.array(rows)
-                norm = float(jac @ jac)
-                if norm < 1e-8:
-                    continue
-                step = np.clip(jac * short / norm, -MAX_TURN, MAX_TURN)
-                for k, turn in zip(self.dofs[a] + self.dofs[a + 1], step):
-                    new = float(np.clip(angles[k] + turn, pseudo.lower[k], pseudo.upper[k]))
-                    if new != angles[k]:
-                        if pseudo.velocity[k] * turn < 0:
-                            pseudo.velocity[k] = 0.0
-                        angles[k] = new
-                        turned = moved = True
-            if not turned:
+            shorts, jac = self._rows(angles)
+            if len(shorts) == 0 or (moved and shorts.max() < SETTLED):
                 break
+            free = np.ones(len(dofs), bool)
+            for _ in range(3):          # drop DOFs a turn would push past their limits, then solve again
+                j = jac * free
+                gram = j @ j.T + 1e-9 * np.eye(len(shorts))
+                lam = np.maximum(np.linalg.solve(gram, shorts), 0.0)
+                step = np.clip(j.T @ lam, -MAX_TURN, MAX_TURN)
+                target = angles[dofs] + step
+                blocked = ((target < pseudo.lower[dofs]) & (step < 0)) | ((target > pseudo.upper[dofs]) & (step > 0))
+                if not np.any(blocked & free):
+                    break
+                free &= ~blocked
+            new = np.clip(angles[dofs] + step, pseudo.lower[dofs], pseudo.upper[dofs])
+            turn = new - angles[dofs]
+            if np.abs(turn).max() < 1e-7:
+                break
+            stop = pseudo.velocity[dofs] * turn < 0
+            pseudo.velocity[dofs[stop]] = 0.0
+            angles[dofs] = new
+            moved = True
         return moved
