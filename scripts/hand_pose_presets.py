@@ -68,10 +68,12 @@ TARGETS = {
     "spread": ("fingers straight and spread apart", {**finger("index", 0, 0, 0, 25), **finger("middle", 0, 0, 0, 0),
                                                      **finger("ring", 0, 0, 0, 12), **finger("pinky", 0, 0, 0, 14),
                                                      **thumb(-15, 15, -5, 0)}),
+    # the little finger curled like the ring finger: at (40, 55, 25) its tip crossed the ring finger's, seen
+    # from the palm
     "computer_graphics_scientist": ("the typical computer graphics scientist's pose (Fig. 6.20): the hand on a "
                                     "mouse, fingers lightly curled, index ready to click", {
         **finger("index", 25, 35, 15), **finger("middle", 30, 40, 15), **finger("ring", 35, 50, 20),
-        **finger("pinky", 40, 55, 25), **thumb(20, 10, 15, 10), "wrist.flexion": -15}),
+        **finger("pinky", 35, 45, 20), **thumb(20, 10, 15, 10), "wrist.flexion": -15}),
 }
 
 MOTIONS = {
