@@ -33,16 +33,19 @@ def thumb(cmc_flex, cmc_abd, mcp, ip):
 
 
 def curled(mcp=85, pip=100, dip=60):
+    """The four fingers of a fist. The long flexors pull curled fingers together (they adduct the MCP
+    joints) until they touch, and the hand's finger contact (faces_hands_addon/hand/contact.py) keeps them
+    side by side; the abductions here only say which way each finger leans."""
     out = {}
-    for f, a in zip(FINGERS, (-5, 0, -5, -25)):
+    for f, a in zip(FINGERS, (0, 0, 5, 10)):
         out.update(finger(f, mcp, pip, dip, a))
     return out
 
 
 TARGETS = {
-    # the ring and little fingers' MyoHand flexion axes are tilted 23-34 degrees towards the thumb, so their
-    # curled tips swing radially: with a 5-degree cascade and no abduction the little finger crossed the ring
-    # and middle fingers (seen from the palm); a 2-degree cascade with the little finger abducted does not
+    # with MyoHand's flexion axes (the ring and little fingers' tilted 23-34 degrees towards the thumb) and no
+    # finger contact, the little finger crossed the ring and middle fingers (seen from the palm) unless the
+    # cascade was small and the little finger abducted; the axes now lie in the palm plane (joints.json)
     "relaxed": ("the hand at rest, fingers gently curved", {
         **{k: v for f, a in zip(FINGERS, (0, 3, 0, 15)) for k, v in finger(f, 20 + 2 * FINGERS.index(f),
                                                                          25 + 2 * FINGERS.index(f), 10, a).items()},
@@ -51,18 +54,26 @@ TARGETS = {
     "point": ("index finger straight, the others curled", {**curled(), **finger("index", 0, 0, 0),
                                                            **thumb(35, -20, 40, 35)}),
     "thumbs_up": ("fist with the thumb stretched out", {**curled(), **thumb(-15, 15, 0, 0)}),
-    # the other three fingers less curled and the ring and little fingers abducted (the tilted axes again):
-    # at (30, 40-45, 20) the ring finger curled across the middle finger, seen from the palm
-    "pinch": ("thumb and index tips meet", {**finger("index", 45, 55, 25), **finger("middle", 25, 30, 15, 3),
+    # the other three fingers less curled and the ring and little fingers abducted (with MyoHand's tilted axes,
+    # at (30, 40-45, 20) the ring finger curled across the middle finger, seen from the palm); the thumb pad meets the index pad: the thumb adducted towards the index, its IP joint flexed, the index
+    # curled at the PIP and DIP joints (a tip pinch); searched for pads that touch and face each other and a
+    # small torque residual of Solve Contractions (the extensor pollicis brevis that an extended CMC joint
+    # needs also extends the MCP joint, so targets with the CMC extended were not reached). Before: thumb
+    # flexed across the palm (CMC 45, MCP 20, IP 15), index (45, 55, 25): the tips stayed 44 mm apart (skins 28 mm), now 4.3 mm
+    "pinch": ("thumb and index tips meet", {**finger("index", 71, 105, 78, -3), **finger("middle", 25, 30, 15, 3),
                                              **finger("ring", 25, 30, 15, 5), **finger("pinky", 25, 30, 15, 15),
-                                             **thumb(45, 0, 20, 15)}),
+                                             **thumb(2, -22, 30, 90)}),
+    # poses.json adds abductor_digiti_minimi 0.3 by hand: Solve Contractions leaves it out (it also flexes the
+    # MCP joint) and the little finger stayed by the ring finger (abduction 0.4 degrees; with it 15)
     "spread": ("fingers straight and spread apart", {**finger("index", 0, 0, 0, 25), **finger("middle", 0, 0, 0, 0),
                                                      **finger("ring", 0, 0, 0, 12), **finger("pinky", 0, 0, 0, 14),
                                                      **thumb(-15, 15, -5, 0)}),
+    # the little finger curled like the ring finger: at (40, 55, 25) its tip crossed the ring finger's, seen
+    # from the palm
     "computer_graphics_scientist": ("the typical computer graphics scientist's pose (Fig. 6.20): the hand on a "
                                     "mouse, fingers lightly curled, index ready to click", {
         **finger("index", 25, 35, 15), **finger("middle", 30, 40, 15), **finger("ring", 35, 50, 20),
-        **finger("pinky", 40, 55, 25), **thumb(20, 10, 15, 10), "wrist.flexion": -15}),
+        **finger("pinky", 35, 45, 20), **thumb(20, 10, 15, 10), "wrist.flexion": -15}),
 }
 
 MOTIONS = {

@@ -21,7 +21,8 @@ __all__ = ["JOINTS", "MUSCLES", "GEOMETRIC", "POSES", "PHOTO_POINTS", "JointsPre
 JOINTS = register_format(PresetFormat("faces_hands.hand_joints", 1, required=("joints", "bone_meshes"), shape={
     "joints": [{"bone": str, "parent": str, "body": str, "child": str, "flexion_axis": str, "dofs": {str: [NUMBER]},
                 "coupled": {str: NUMBER}}],
-    "bone_meshes": {str: [str]}, "capsule_stiffness_nm_per_rad": NUMBER, "friction": NUMBER}))
+    "bone_meshes": {str: [str]}, "capsule_stiffness_nm_per_rad": NUMBER, "friction": NUMBER,
+    "finger_flexion_tilt": NUMBER}))
 MUSCLES = register_format(PresetFormat("faces_hands.hand_muscles", 1, required=("muscles",), shape={
     "muscles": [{"name": str, "group": str, "l0_mm": NUMBER, "f_max_n": NUMBER, "force_source": str,
                  "rows": [[ANY]], "note": str}]}))
@@ -54,6 +55,7 @@ class JointsPreset:
     bone_meshes: dict[str, list[str]]
     capsule_stiffness: float
     friction: float
+    finger_flexion_tilt: float = 1.0    # share of MyoHand's finger flexion-axis tilt kept (:mod:`.reference`)
 
 
 def joints_preset(text: str | None = None, source: str = "hand/joints.json") -> JointsPreset:
@@ -81,7 +83,10 @@ def joints_preset(text: str | None = None, source: str = "hand/joints.json") -> 
     capsule = float(doc.get("capsule_stiffness_nm_per_rad", 0.0))
     if friction <= 0 or capsule < 0:
         raise UserError(f"{source}: friction must be > 0 and capsule_stiffness_nm_per_rad >= 0")
-    return JointsPreset(doc["joints"], doc["bone_meshes"], capsule, friction)
+    tilt = float(doc.get("finger_flexion_tilt", 1.0))
+    if not 0.0 <= tilt <= 1.0:
+        raise UserError(f"{source}: finger_flexion_tilt must be a share in [0, 1] (1: MyoHand's axes as they are)")
+    return JointsPreset(doc["joints"], doc["bone_meshes"], capsule, friction, tilt)
 
 
 @dataclass(frozen=True)

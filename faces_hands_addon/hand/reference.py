@@ -3,6 +3,15 @@
 radius and ulna in MyoHand's rest pose, joint centres at MyoHand's body origins, flexion axes seeded by
 MyoHand's hinge axes, the DOFs and limits of ``presets/hand/joints.json`` (Table 6.4).
 
+MyoHand tilts the flexion axes of the middle, ring and little fingers 11, 26 and 34 degrees out of the palm
+plane (the transverse arch), so curled fingers converge towards the thumb; MyoHand's fingers collide and
+stop each other, ours have no finger-finger contact, and with the whole tilt the curled fingers of a fist
+ran into each other (neighbouring phalanx axes 2.7 mm apart; a finger is about 16-20 mm wide). The thesis
+sets its joint frames by hand on the template hand (6.2.1), so the phalanges keep only the share
+``finger_flexion_tilt`` of joints.json of that tilt (the axis turns about the bone towards the palm plane;
+the shipped preset keeps none: with half of it the curled middle finger's tip still ended under the ring
+finger's, out of reach of the finger contact of :mod:`.contact`).
+
 The signs of the DOF axes are fixed by geometry (:mod:`.skeleton` docstring): positive flexion brings a
 finger's tip towards the palm side (+X of the asset frame, the palm of the right hand faces +X) and the
 thumb's towards the middle of the palm; positive abduction moves a finger away from the middle finger
@@ -18,7 +27,7 @@ from ..core.errors import UserError
 from .presets import JointsPreset
 from .skeleton import FINGERS, TIP_NAMES, Dof, Skeleton, rotation_matrices
 
-__all__ = ["PALM_NORMAL", "RADIAL", "build_skeleton", "finger_of"]
+__all__ = ["PALM_NORMAL", "RADIAL", "build_skeleton", "finger_of", "untilted"]
 
 PALM_NORMAL = np.array([1.0, 0.0, 0.0])   # the right hand's palm faces +X in the asset frame
 RADIAL = np.array([0.0, -1.0, 0.0])       # the thumb side
@@ -50,7 +59,16 @@ def _signed_axis(axis, position, tail, score) -> np.ndarray:
     return axis if score(_moved(tail, position, axis)) > score(_moved(tail, position, -axis)) else -axis
 
 
-def _frames(names, position, tail, flexion_seed, palm_target, index_mcp):
+def untilted(x: np.ndarray, z: np.ndarray, kept: float) -> np.ndarray:
+    """The flexion axis ``x`` (unit, normal to the bone direction ``z``) turned about ``z`` towards the palm
+    plane (normal to :data:`PALM_NORMAL`) so that only the share ``kept`` of its tilt out of it is left."""
+    level = _unit(np.cross(z, PALM_NORMAL))
+    level = level if level @ x >= 0 else -level
+    tilt = np.arctan2(np.cross(level, x) @ z, level @ x)
+    return rotation_matrices(z[None], np.array([(kept - 1.0) * tilt]))[0] @ x
+
+
+def _frames(names, position, tail, flexion_seed, palm_target, index_mcp, tilt_kept=1.0):
     """Right-handed joint frames x (flexion), y = z x x, z (to the child), with x signed by geometry, and the
     sign (+1/-1) that makes a positive abduction angle move the child as the module docstring says."""
     frames = np.empty((len(names), 3, 3))
@@ -60,6 +78,8 @@ def _frames(names, position, tail, flexion_seed, palm_target, index_mcp):
         seed = flexion_seed[b]
         x = _unit(seed - (seed @ z) * z)
         finger = finger_of(name)
+        if finger not in (None, "thumb") and "phalanx" in name and tilt_kept != 1.0:
+            x = untilted(x, z, tilt_kept)
         if finger == "thumb":
             x = _signed_axis(x, position[b], tail[b], lambda p: -np.linalg.norm(p - palm_target))
         else:
@@ -127,7 +147,7 @@ def build_skeleton(preset: JointsPreset) -> Skeleton:
     middle_mcp = position[index["middle-finger-phalanx-proximal"]]
     palm_target = 0.5 * (middle_mcp + position[index["middle-finger-metacarpal"]]) + 0.03 * PALM_NORMAL
     frames, abduction_sign = _frames(names, position, tail, seeds, palm_target,
-                                     position[index["index-finger-phalanx-proximal"]])
+                                     position[index["index-finger-phalanx-proximal"]], preset.finger_flexion_tilt)
     dofs = []
     for b, name in enumerate(names[1:], 1):
         joint = joints[name]

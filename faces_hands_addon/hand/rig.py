@@ -2,7 +2,8 @@
 """``HandRig``: the physics-based anatomical hand (thesis 6.2), a :class:`..core.rig.Rig`.
 
 Per frame, in the order of 6.2.1 "Animation" and 6.2.2: the mixed contraction values drive the pseudo
-muscles, which rotate the bones (:mod:`.pseudo`, Eqs. 6.1-6.9, joint limits of Table 6.4); the geometric
+muscles, which rotate the bones (:mod:`.pseudo`, Eqs. 6.1-6.9, joint limits of Table 6.4), and touching
+fingers are kept side by side (:mod:`.contact`, beyond the thesis); the geometric
 muscles follow their bones and bulge (:mod:`.geometric`); every skin node's attachment point is carried by
 the bones (the skin's skinning weights) and pushed out by the muscle beneath it; then the mass-spring
 network is integrated (leapfrog Verlet, :mod:`..physics`) and the skin follows.
@@ -27,6 +28,7 @@ from ..core.controls import ControlSpec, clamp_controls
 from ..core.errors import UserError
 from ..core.rig import Pose, read_rig_archive, write_rig_archive
 from . import HAND_RIG_FORMAT
+from .contact import FingerContact
 from .geometric import build_geometric_muscles
 from .network import HandMaterial, build_hand_network
 from .photo import photo_warp
@@ -80,6 +82,7 @@ class HandRig:
         self.specs = control_specs_for(template)
         self.muscle_names = [m.name for m in template.muscles]
         self.pseudo = PseudoMuscles(sk, template.muscles, template.masses, template.friction, template.capsule)
+        self.contact = FingerContact(sk, self.pseudo)
         self.geometric = build_geometric_muscles(template.geometric, sk, template.skin.vertices,
                                                  template.skin.faces, self.muscle_names, template.grids)
         self.hand = build_hand_network(template.skin.vertices, template.skin.faces, material)
@@ -162,6 +165,7 @@ class HandRig:
             raise UserError("the frame time step must be a positive number of seconds")
         contraction = self.contraction_vector()
         self.pseudo.step(contraction, dt)
+        self.contact.resolve()
         self._advance_skin(contraction, dt)
 
     def _advance_skin(self, contraction: np.ndarray, dt: float) -> None:

@@ -97,7 +97,11 @@ def test_solve_contractions_reaches_a_pose_set_on_the_bones(rig):
     solution = solve_contractions(rig.pseudo, target)
     assert all(0.0 <= v <= 1.0 for v in solution.contractions.values())
     effort = sum(v * v for v in solution.contractions.values())
-    rig.settled({"ctrl": solution.contractions}, 3.0)
+    rig.contact.enabled = False           # the solver balances muscles only; the finger contact would hold
+    try:                                  # the adducted little finger off the ring finger
+        rig.settled({"ctrl": solution.contractions}, 3.0)
+    finally:
+        rig.contact.enabled = True
     error = np.degrees(np.abs(rig.joint_angles - target))[rig.pseudo.dynamic]
     assert error.mean() < 4.0 and error.max() < 15.0, (error.mean(), error.max())
     stronger = {k: min(1.0, v * 1.5 + 0.05) for k, v in solution.contractions.items()}
