@@ -244,6 +244,12 @@ LONG_EXCESS_S = 0.1
 MAX_UNSPOKEN_KEPT = 2
 #: the soft pass decodes the recording in pieces of about this many frames, cut at word ends
 SOFT_CHUNK_FRAMES = 1500
+#: at most this many active HMMs per frame in the soft pass: its garbage loops under the wide beams a
+#: hard recording needs took 80 s per 15-s piece (the forced pass keeps its own beams)
+SOFT_MAX_HMM_PER_FRAME = 3000
+#: the soft pass's beams when the default ones do not reach a piece's end (never wider: the forced pass's
+#: 1e-300 beams took 116 s on one 15-s piece; without a soft path fewer words are named, nothing else)
+SOFT_RETRY_BEAMS = {"beam": 1e-80, "wbeam": 1e-60, "pbeam": 1e-80}
 
 
 @dataclass
@@ -291,7 +297,9 @@ def _soft_piece(ps, pcm: bytes, keys, extra_words, beams) -> list[tuple[str, int
 def soft_path(ps, pcm: bytes, keys: list[str], extra_words, words: list[WordFit],
               beams: dict | None = None) -> SoftPath | None:
     """Decode the recording against the soft transcript (pieces of about ``SOFT_CHUNK_FRAMES``, cut
-    at the forced path's word ends) and read off left-out words and phone-loop runs."""
+    at the forced path's word ends; each with the default beams, then, when the forced pass needed wider
+    ``beams``, with ``SOFT_RETRY_BEAMS``; both bounded by ``SOFT_MAX_HMM_PER_FRAME``) and read off
+    left-out words and phone-loop runs."""
     frames = len(pcm) // (2 * HOP)
     loud = loud_frames(pcm, frames)
     cuts = [(0, 0)]  # (frame, first token) of each piece
@@ -303,7 +311,11 @@ def soft_path(ps, pcm: bytes, keys: list[str], extra_words, words: list[WordFit]
     for (a, first), (b, last) in zip(cuts, cuts[1:]):
         if last <= first:
             continue
-        segs = _soft_piece(ps, pcm[a * 2 * HOP:b * 2 * HOP], keys[first:last], extra_words, beams or {})
+        piece = pcm[a * 2 * HOP:b * 2 * HOP]
+        bound = {"maxhmmpf": SOFT_MAX_HMM_PER_FRAME}
+        segs = _soft_piece(ps, piece, keys[first:last], extra_words, bound)      # default beams first
+        if segs is None and beams:     # the forced pass needed wider beams: a bounded wider retry
+            segs = _soft_piece(ps, piece, keys[first:last], extra_words, {**SOFT_RETRY_BEAMS, **bound})
         if segs is None:
             return None
         _read_piece(path, [(w, s + a, e + a) for w, s, e in segs], keys, first, last, loud)
