@@ -5,10 +5,12 @@ This file is the extension entry point and only registers ``operators/`` and ``p
 ``operators.common.registry`` (the one place that registers and unregisters anything). The science lives in
 the Blender-free engine ``faces_hands_addon/``.
 """
+import atexit
+
 from . import operators, panels
 from .operators import cli
 from .operators.common import registry
-from .operators.common.paths import configure_presets
+from .operators.common.paths import configure_presets, write_session_bytecode
 
 _registered = False
 
@@ -24,6 +26,7 @@ def register():
         cli_commands=[("faces_hands", cli.blender_cli_entry)],
     )
     configure_presets(__package__)
+    atexit.register(write_session_bytecode)  # Blender writes no bytecode: the next start compiles less
     _registered = True
 
 
@@ -31,4 +34,5 @@ def unregister():
     global _registered
     registry.unregister_all()
     configure_presets(None)
+    atexit.unregister(write_session_bytecode)
     _registered = False

@@ -39,6 +39,7 @@ from scipy.signal import lfilter  # noqa: E402
 from faces_hands_addon import UserError  # noqa: E402
 from faces_hands_addon.speech import align_audio, synthesize  # noqa: E402
 from faces_hands_addon.speech import transcript_check  # noqa: E402
+from faces_hands_addon.speech.tts import pronounce  # noqa: E402
 
 CALIBRATION = [
     "The quick brown fox jumps over the lazy dog.",
@@ -122,7 +123,12 @@ def edits(text: str, k: int):
     add_at = 1 + (k * 3) % (len(words) - 1)
     extra = ADDED[k % len(ADDED)]
     added = " ".join(words[:add_at] + [extra] + words[add_at:]) + "."
-    return dropped, neighbours, added, extra
+    return dropped, neighbours, added, extra, words[drop]
+
+
+def phone_count(word: str) -> int:
+    """How many phones espeak-ng says ``word`` with (a left-out 1-2 phone function word is the hard case)."""
+    return sum(len(phones) for phones in pronounce(word).values())
 
 
 def run(audio, transcript, rate=16000):
@@ -165,7 +171,7 @@ def evaluate(sentences, folder: Path, fits: list):
         samples, rate = soundfile.read(str(wav), dtype="float64")
         item = f"{speaker} #{k}"
         wrong = sentences[(k + 1) % len(sentences)]
-        dropped, neighbours, added, extra = edits(text, k)
+        dropped, neighbours, added, extra, left_out = edits(text, k)
         for name, snr in SNRS.items():
             seed = 1000 * k + 10 * len(speaker) + int(snr or 0)
             noisy = folder / f"{wav.stem}_{name}.wav"
@@ -177,7 +183,8 @@ def evaluate(sentences, folder: Path, fits: list):
             result = run(str(noisy), wrong)
             record(f"wrong_{name}", item, result, result["refused"])
             result = run(str(noisy), dropped)
-            record(f"missing_{name}", item, result, named(result, neighbours), {"names": sorted(neighbours)})
+            record(f"missing_{name}", item, result, named(result, neighbours),
+                   {"names": sorted(neighbours), "left_out": left_out, "phones": phone_count(left_out)})
             result = run(str(noisy), added)
             record(f"extra_{name}", item, result, named(result, [extra]), {"names": [extra]})
             if name == "clean":
@@ -221,10 +228,9 @@ def main() -> None:
     fits: list = []
     with tempfile.TemporaryDirectory() as tmp:
         ok, times, phone_counts = evaluate(sentences, Path(tmp), fits)
-    if calibrate:
-        dump = Path(tempfile.gettempdir()) / "transcript_check_calibration.json"
-        dump.write_text(json.dumps(fits, indent=1, default=str))
-        print(f"raw scores written to {dump}")
+    dump = Path(tempfile.gettempdir()) / f"transcript_check_{'calibration' if calibrate else 'held_out'}.json"
+    dump.write_text(json.dumps(fits, indent=1, default=str))
+    print(f"raw scores written to {dump}")
     print(f"{'calibration' if calibrate else 'held-out'} set: {len(sentences)} sentences x 2 voices")
     for condition, values in ok.items():
         print(f"  {condition:16s} {sum(values):3d}/{len(values):3d} = {pct(values):5.1f} %")
@@ -235,6 +241,12 @@ def main() -> None:
     correct = [r for r in fits if r["condition"].startswith("correct") and not r["refused"]]
     alarms = [r for r in correct if any(m in w for w in r["warnings"] for m in WORD_WARNINGS)]
     print(f"  false alarms: {len(alarms)}/{len(correct)} accepted correct transcripts got a word warning")
+    for label, keep in (("of 1-2 phones", lambda n: n <= 2), ("of 3+ phones", lambda n: n >= 3)):
+        rows = [r for r in fits if r["condition"].startswith("missing") and keep(r["phones"])]
+        hits = [r for r in rows if not r["refused"] and any(f"'{n}'" in " ".join(r["warnings"]).lower()
+                                                            for n in r["names"])]
+        print(f"  left-out words {label}: named {len(hits)}/{len(rows)} "
+              f"({', '.join(sorted({r['left_out'] for r in rows}))})")
     recognised = [(n, ref, longest) for n, ref, longest, refused in phone_counts if not refused]
     print(f"  no transcript: {len(recognised)}/{len(phone_counts)} recognised; phones/reference median "
           f"{np.median([n / ref for n, ref, _ in recognised]):.2f}, longest phone "

@@ -17,6 +17,7 @@ import traceback
 from ..faces_hands_addon.core.errors import UserError
 from .common.interrupts import Terminated, clear, interruptible, private_temp_root, raise_pending
 from .common.outputs import ledger_mark, written_since
+from .common.paths import write_session_bytecode
 
 
 class CommandLineError(Exception):
@@ -82,7 +83,15 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run one subcommand; returns the process exit code."""
+    """Run one subcommand; returns the process exit code. Unless interrupted, the modules the run loaded get
+    their bytecode written (``paths.write_session_bytecode``), so the next run starts faster."""
+    code = _run_command(argv)
+    if code not in (130, 143):
+        write_session_bytecode()
+    return code
+
+
+def _run_command(argv: list[str] | None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     parser = build_parser()
     debug = "--debug" in argv

@@ -6,12 +6,13 @@ from __future__ import annotations
 
 import os
 import shutil
+import sys
 from pathlib import Path
 
 import bpy
 
 from ...faces_hands_addon.anim.shape_cache import ShapeCache
-from ...faces_hands_addon.core import presets
+from ...faces_hands_addon.core import bytecode, presets
 from ...faces_hands_addon.physics import kernel
 
 __all__ = ["user_preset_folder", "preset_folder", "preferences", "output_folder", "default_voice",
@@ -117,3 +118,15 @@ def copy_presets(overwrite: bool = False) -> tuple[Path, list[str]]:
         shutil.copyfile(source, target)
         copied.append(relative.as_posix())
     return folder, copied
+
+
+def write_session_bytecode() -> int:
+    """Write the missing bytecode of the modules this session loaded from the installed extension and its
+    wheels (engine ``core.bytecode``: Blender writes none, so each start compiled them again); returns the
+    number of files written. Called when a command line run ends and when Blender quits."""
+    extension = Path(__file__).resolve().parents[2]
+    wheels = [entry for entry in sys.path if {"extensions", ".local"} <= set(Path(entry).parts)]
+    try:
+        return bytecode.write_missing_bytecode([extension], wheels)
+    except OSError:
+        return 0

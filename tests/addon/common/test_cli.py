@@ -73,3 +73,20 @@ def test_a_commands_temporary_files_all_go_with_it(installed, tmp_path, monkeypa
                 reached = True                                 # the handler only recorded it
         assert reached
     interrupts.clear()
+
+
+def test_a_run_leaves_bytecode_for_the_next(installed, built_extension):
+    """Blender writes no bytecode and unpacks wheels without compiling them; a command line run writes the
+    bytecode of what it loaded from the extension and its wheels, so the next run does not compile it again."""
+    import importlib.util
+    import shutil
+
+    cached = [built_extension / "operators" / "cli.py", built_extension / "faces_hands_addon" / "core" / "errors.py"]
+    for source in cached:
+        shutil.rmtree(source.parent / "__pycache__", ignore_errors=True)
+    result = run_fh(installed, "info")
+    assert result.returncode == 0, result.stderr[-2000:]
+    for source in cached:
+        assert importlib.util.cache_from_source(str(source)) and \
+            (source.parent / "__pycache__").is_dir(), source
+        assert any(p.name.startswith(source.stem + ".") for p in (source.parent / "__pycache__").iterdir())
