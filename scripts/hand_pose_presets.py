@@ -53,7 +53,11 @@ TARGETS = {
     "fist": ("all fingers curled into the palm, thumb over them", {**curled(), **thumb(35, -20, 45, 40)}),
     "point": ("index finger straight, the others curled", {**curled(), **finger("index", 0, 0, 0),
                                                            **thumb(35, -20, 40, 35)}),
-    "thumbs_up": ("fist with the thumb stretched out", {**curled(), **thumb(-15, 15, 0, 0)}),
+    # the thumb points radially, off the fist (Table 6.4 limits: CMC I flexion -35..55, abduction -40..35, MCP I
+    # -30..85, IP -60..90): CMC extended -30, abducted 10, MCP and IP extended -15 put the tip direction 80 deg
+    # from the hand axis (0.98 radial). Before: (-15, 15, 0, 0), 56 deg from the axis and 0.45 palmar, so it
+    # pointed at the three-quarter camera and lay along the curled index finger in that view
+    "thumbs_up": ("fist with the thumb stretched out", {**curled(), **thumb(-30, 10, -15, -15)}),
     # the other three fingers less curled and the ring and little fingers abducted (with MyoHand's tilted axes,
     # at (30, 40-45, 20) the ring finger curled across the middle finger, seen from the palm); the thumb pad meets the index pad: the thumb adducted towards the index, its IP joint flexed, the index
     # curled at the PIP and DIP joints (a tip pinch); searched for pads that touch and face each other and a

@@ -190,7 +190,7 @@ def run_demo(out_dir, progress, motion_name: str = "showcase") -> list:
     outputs = []
     for name, cells, view, columns in (("hand_contact_sheet.png", sheet.pose_cells(rig), "palm", 4),
                                        ("hand_contact_sheet_side.png", sheet.pose_cells(rig), "side", 4),
-                                       ("hand_bulges.png", sheet.bulge_cells(rig), "three-quarter", 6)):
+                                       ("hand_bulges.png", sheet.bulge_cells(rig), "palm", 6)):
         path = out_dir / name
         with atomic_output(path) as tmp:
             sheet.render_hand_sheet(bpy.context, obj, cells, tmp, view, columns, progress=part(0.05, 0.6))

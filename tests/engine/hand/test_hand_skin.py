@@ -1,6 +1,6 @@
 """The reference skin's shape (thesis 6.2.1, Fig. 6.13): round finger and thumb sections centred on their
 bones (the warped WebXR hand had a cone for a thumb and flat-sided ring finger bases), fingers that part when
-spread, and geometric muscles that swell the skin by millimetres (6.2.2, Fig. 6.18)."""
+spread, geometric muscles that swell the skin by millimetres (6.2.2, Fig. 6.18), a thumbs-up thumb off the fist."""
 from __future__ import annotations
 
 import numpy as np
@@ -98,3 +98,23 @@ def test_every_geometric_muscle_swells_the_skin_by_millimetres(rig, muscle, leas
     outward = np.einsum("ij,ij->i", bulged - rest, geometry.vertex_normals(rest, rig.template.skin.faces))
     assert outward.max() * 1000 >= least_mm
     assert (outward > 0.001).sum() >= 10                               # a swelling, not one raised node
+
+
+def test_the_thumbs_up_thumb_stands_off_the_fist(rig):
+    """The thumb of ``thumbs_up`` points to the thumb side, across the hand's axis, not along the curled index
+    finger (seen from three quarters it lay on the fist and vanished against it)."""
+    from faces_hands_addon.hand.reference import RADIAL
+    sk = rig.skeleton
+    rig.reset()
+    rig.settled({"ctrl": motion.pose_contractions("thumbs_up", rig.muscle_names)}, 3.0)
+    transforms = sk.bone_transforms(rig.pseudo.angles)
+    rig.reset()
+
+    def posed(bone, point):
+        return (transforms[sk.index[bone]] @ np.r_[point, 1.0])[:3]
+    base = posed("thumb-phalanx-proximal", sk.position[sk.index["thumb-phalanx-proximal"]])
+    tip = posed("thumb-phalanx-distal", sk.tail[sk.index["thumb-phalanx-distal"]])
+    direction = (tip - base) / np.linalg.norm(tip - base)
+    axis = sk.position[sk.index["middle-finger-phalanx-proximal"]] - sk.position[sk.index["wrist"]]
+    assert direction @ RADIAL > 0.85                                   # 0.74 before the fix
+    assert np.degrees(np.arccos(direction @ axis / np.linalg.norm(axis))) > 65   # 60 before
