@@ -80,6 +80,7 @@ def test_a_run_leaves_bytecode_for_the_next(installed, built_extension):
     bytecode of what it loaded from the extension and its wheels, so the next run does not compile it again."""
     import importlib.util
     import shutil
+    from pathlib import Path
 
     cached = [built_extension / "operators" / "cli.py", built_extension / "faces_hands_addon" / "core" / "errors.py"]
     for source in cached:
@@ -87,6 +88,4 @@ def test_a_run_leaves_bytecode_for_the_next(installed, built_extension):
     result = run_fh(installed, "info")
     assert result.returncode == 0, result.stderr[-2000:]
     for source in cached:
-        assert importlib.util.cache_from_source(str(source)) and \
-            (source.parent / "__pycache__").is_dir(), source
-        assert any(p.name.startswith(source.stem + ".") for p in (source.parent / "__pycache__").iterdir())
+        assert Path(importlib.util.cache_from_source(str(source))).is_file(), source

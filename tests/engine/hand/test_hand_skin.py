@@ -109,11 +109,9 @@ def test_the_thumbs_up_thumb_stands_off_the_fist(rig):
     rig.settled({"ctrl": motion.pose_contractions("thumbs_up", rig.muscle_names)}, 3.0)
     transforms = sk.bone_transforms(rig.pseudo.angles)
     rig.reset()
-
-    def posed(bone, point):
-        return (transforms[sk.index[bone]] @ np.r_[point, 1.0])[:3]
-    base = posed("thumb-phalanx-proximal", sk.position[sk.index["thumb-phalanx-proximal"]])
-    tip = posed("thumb-phalanx-distal", sk.tail[sk.index["thumb-phalanx-distal"]])
+    proximal, distal = sk.index["thumb-phalanx-proximal"], sk.index["thumb-phalanx-distal"]
+    base = sk.posed_points(transforms, proximal, sk.position[proximal])
+    tip = sk.posed_points(transforms, distal, sk.tail[distal])
     direction = (tip - base) / np.linalg.norm(tip - base)
     axis = sk.position[sk.index["middle-finger-phalanx-proximal"]] - sk.position[sk.index["wrist"]]
     assert direction @ RADIAL > 0.85                                   # 0.74 before the fix
