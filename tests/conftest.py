@@ -69,8 +69,9 @@ _install_for_session()
 
 def pytest_collection_modifyitems(config, items):
     if os.environ.get("FH_TEST_SKIP_ENGINE") == "1":
-        # CI's bpy 4.5 and 5.3 lines: the engine never imports bpy, and the same Python and numpy already
-        # run every engine test (4.5 = 3.11 + numpy 1.26 as `make test-engine`; 5.3 = 3.13 + numpy 2.5 as 5.2)
+        # CI's bpy 5.0, 4.5 and 5.3 lines: the engine never imports bpy, and the same Python and numpy already
+        # run every engine test (5.0 and 4.5 = 3.11 + numpy 1.26 as `make test-engine`; 5.3 = 3.13 + numpy
+        # 2.5 as 5.2)
         skip = pytest.mark.skip(reason="engine tests run on another line with this Python and numpy")
         for item in items:
             if "tests/engine/" in str(item.fspath).replace(os.sep, "/"):
