@@ -80,6 +80,19 @@ TARGETS = {
         **finger("pinky", 35, 45, 20), **thumb(20, 10, 15, 10), "wrist.flexion": -15}),
 }
 
+# Co-contraction of intrinsic muscles that have geometric twins (Fig. 6.15), pinned before the solve so Solve
+# Contractions finds the other contractions around them: minimal effort alone leaves them near 0 (holding a
+# pose needs no grip force) and the fist showed no swelling (skin lift 0.2-0.5 mm; with these 3.0 mm at the
+# hypothenar). The values are chosen, not measured. Tried and dropped: the first dorsal interosseus 0.5 in the
+# pinch (1.4 mm at the first web, but 25 skin pockets at the finger bases against 22 allowed);
+# the thenar muscles above 0.15 (opponens, adductor pollicis: the thumb's IP joint then missed its target by
+# 40-130 degrees) and flexor digiti minimi brevis 0.5 (the little finger hooked out of the fist)
+GRIP = {
+    "fist": {"opponens_pollicis": 0.15, "opponens_digiti_minimi": 0.6},
+    "point": {"opponens_digiti_minimi": 0.6},
+    "thumbs_up": {"opponens_digiti_minimi": 0.6},
+}
+
 MOTIONS = {
     "wave_to_fist": ("opens the hand, makes a fist, opens again",
                      [[0.0, "relaxed"], [0.6, "spread"], [1.4, "fist"], [2.2, "relaxed"]]),
@@ -91,7 +104,7 @@ MOTIONS = {
 }
 
 
-def reached(rig, target: np.ndarray, rounds: int = 5):
+def reached(rig, target: np.ndarray, rounds: int = 5, fixed: dict[str, float] | None = None):
     """Contractions that bring the *simulated* hand to ``target``: the static solution alone leaves the joints
     some degrees off (friction holds a joint before its balance, Eq. 6.9; three-decimal rounding), and a few
     degrees of abduction off is enough to cross two neighbouring fingers. So the target handed to the solver is
@@ -99,7 +112,7 @@ def reached(rig, target: np.ndarray, rounds: int = 5):
     goal = np.clip(target, rig.pseudo.lower, rig.pseudo.upper)
     command, best = goal.copy(), None
     for _ in range(rounds):
-        solution = solve_contractions(rig.pseudo, command)
+        solution = solve_contractions(rig.pseudo, command, fixed)
         contractions = {k: round(v, 3) for k, v in solution.contractions.items() if v >= 0.0005}
         rig.settled({"ctrl": contractions}, 3.0)
         error = (goal - rig.pseudo.angles) * rig.pseudo.dynamic
@@ -121,7 +134,7 @@ def main(names: list[str]) -> int:
         for key, value in angles.items():
             bone, kind = key.rsplit(".", 1)
             q[sk.dof(bone, kind)] = np.radians(value)
-        _, contractions, residual = reached(rig, q)
+        _, contractions, residual = reached(rig, q, fixed=GRIP.get(name))
         rig.settled({"ctrl": contractions}, 3.0)
         error = np.degrees(np.abs(rig.pseudo.angles - np.clip(q, rig.pseudo.lower, rig.pseudo.upper)))
         worst = int(np.argmax(error * rig.pseudo.dynamic))

@@ -116,3 +116,20 @@ def test_the_thumbs_up_thumb_stands_off_the_fist(rig):
     axis = sk.position[sk.index["middle-finger-phalanx-proximal"]] - sk.position[sk.index["wrist"]]
     assert direction @ RADIAL > 0.85                                   # 0.74 before the fix
     assert np.degrees(np.arccos(direction @ axis / np.linalg.norm(axis))) > 65   # 60 before
+
+
+@pytest.mark.parametrize("pose, least_mm", [("fist", 2.0), ("point", 2.0), ("thumbs_up", 2.0)])
+def test_grip_poses_swell_their_geometric_muscles(rig, pose, least_mm):
+    """A held fist co-contracts intrinsic muscles (presets/hand/poses.json, GRIP in
+    scripts/hand_pose_presets.py): the geometric muscles lift the skin by millimetres in the pose itself, not
+    only on the bulge sheet. Before, minimal-effort contractions left them at 0.2-0.5 mm."""
+    rig.reset()
+    rig.settled({"ctrl": motion.pose_contractions(pose, rig.muscle_names)}, 3.0)
+    contraction = rig.contraction_vector()
+    transforms = rig.skeleton.bone_transforms(rig.pseudo.angles)
+    rig.reset()
+    _, bulge = rig.geometric.surface(transforms, contraction)
+    _, relaxed = rig.geometric.surface(transforms, np.zeros_like(contraction))
+    lift = np.linalg.norm(rig.geometric.skin_displacement(bulge - relaxed), axis=1) * 1000
+    assert lift.max() >= least_mm
+    assert (lift > 0.5).sum() >= 10
