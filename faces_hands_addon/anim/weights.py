@@ -20,6 +20,12 @@ open vowel as frowns plus a lowered lower lip). So the fit may be held near *pri
 semantic weights, ``semantic``): min_w ||B w - d_f||^2 + lambda s ||w - p_f||^2 (s: the Gram matrix's mean
 diagonal), which costs little residual and keeps the weights' meaning. Frames that must show one viseme
 (a lip closure) take the prior as it is, with no corrective weight.
+
+The per-frame problems are tiny (a few hundred rows, ~120 columns), and a threaded BLAS spends longer waking
+its threads than computing them, badly so on a busy machine (a render farm, or tests beside the bake): a
+242 x 121 gradient took 3.4 ms with two OpenBLAS threads against 0.04 ms with one on this machine under
+load, and ``./fh speak`` of 56.6 s of speech spent 43.6 s in the weight fit, 11.4 s with one BLAS thread for the whole process (both runs under load). So the
+frame loops run with one BLAS thread (``threadpoolctl``); the large products of a block keep every thread.
 """
 from __future__ import annotations
 
@@ -28,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import cho_factor, solve_triangular
 from scipy.optimize import lsq_linear, nnls
+from threadpoolctl import ThreadpoolController
 
 from ..core.errors import UserError
 
@@ -35,6 +42,14 @@ __all__ = ["TargetBasis", "WeightFit", "WeightSolver", "fit_weights", "stack_pos
 
 REGULARISATION = 1e-9      # relative to the Gram matrix's mean diagonal: equal targets share weight evenly
 PRIOR_STRENGTH = 0.3       # lambda: measured on speech, residual median +0.1 mm, L1 distance to the prior / 4
+_THREADS: list[ThreadpoolController] = []
+
+
+def _one_blas_thread():
+    """A context in which the BLAS libraries loaded into this process use one thread (module docstring)."""
+    if not _THREADS:
+        _THREADS.append(ThreadpoolController())
+    return _THREADS[0].limit(limits=1, user_api="blas")
 
 
 @dataclass(frozen=True)
@@ -126,11 +141,13 @@ class _Stage:
         if not len(flat):
             return np.zeros((0, count))
         rhs = solve_triangular(self.lower, self.columns.T @ flat.T, lower=True)       # (T, F)
-        if prior is None or strength <= 0:
-            return np.stack([bounded_nnls(self.lower.T, rhs[:, f]) for f in range(len(flat))])
-        root = np.sqrt(strength * self.scale)
-        matrix = np.vstack([self.lower.T, root * np.eye(count)])
-        return np.stack([bounded_nnls(matrix, np.concatenate([rhs[:, f], root * prior[f]])) for f in range(len(flat))])
+        with _one_blas_thread():
+            if prior is None or strength <= 0:
+                return np.stack([bounded_nnls(self.lower.T, rhs[:, f]) for f in range(len(flat))])
+            root = np.sqrt(strength * self.scale)
+            matrix = np.vstack([self.lower.T, root * np.eye(count)])
+            return np.stack([bounded_nnls(matrix, np.concatenate([rhs[:, f], root * prior[f]]))
+                             for f in range(len(flat))])
 
 
 class WeightSolver:

@@ -43,7 +43,7 @@ def test_zip_has_exactly_the_wheels_of_its_line_and_platform(installed):
     listed = [Path(w).name for w in _manifest()["wheels"]]
     assert wheels == sorted(w for w in listed if wheel_fits(w, line, "linux-x64"))
     assert {w.split("-")[0] for w in wheels} == {"scipy", "soundfile", "cffi", "pycparser", "espeakng_loader", "h5py",
-                                                 "pocketsphinx", "numba", "llvmlite"}
+                                                 "pocketsphinx", "numba", "llvmlite", "threadpoolctl"}
     assert shipped["platforms"] == ["linux-x64"]
     expected = {"py311": ("4.5.0", "5.1.0"), "py313": ("5.2.0", "5.4.0")}[line]
     assert (shipped["blender_version_min"], shipped["blender_version_max"]) == expected
@@ -58,7 +58,7 @@ def test_manifest_has_every_dependency_for_every_line_and_platform():
             # the simulation kernel's numba: no numba release has Intel-macOS wheels for numpy 2.5 (numpy path)
             kernel = set() if platform == "macos-x64" else {"numba", "llvmlite"}
             assert found == {"scipy", "soundfile", "cffi", "pycparser", "espeakng_loader", "pocketsphinx", "h5py",
-                             *kernel}, (line, platform, found)
+                             "threadpoolctl", *kernel}, (line, platform, found)
             scipy = [w for w in listed if w.startswith("scipy-") and wheel_fits(w, line, platform)]
             assert len(scipy) == 1, (line, platform, scipy)
 

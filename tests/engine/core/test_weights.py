@@ -69,3 +69,24 @@ def test_fit_weights_and_stack_pose():
     moved[:3, 3] = (0, 0, 0.01)
     stacked = stack_pose(np.zeros((2, 3)), {"jaw": np.ones((3, 3))}, {"jaw": moved})
     assert stacked.shape == (5, 3) and np.allclose(stacked[2:, 2], 1.01)
+
+
+def test_the_frame_fit_runs_on_one_blas_thread_and_restores_it(monkeypatch):
+    """The per-frame bounded solves run with one BLAS thread (anim/weights.py: threaded BLAS on tiny problems
+    costs more than it computes), and the process' own setting is back afterwards."""
+    from threadpoolctl import threadpool_info
+    from faces_hands_addon.anim import weights as weights_module
+    seen = []
+    original = weights_module.bounded_nnls
+
+    def spy(matrix, rhs, *args, **kwargs):
+        seen.append(max(i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"))
+        return original(matrix, rhs, *args, **kwargs)
+
+    before = [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"]
+    monkeypatch.setattr(weights_module, "bounded_nnls", spy)
+    rng = np.random.default_rng(3)
+    basis = weights_module.TargetBasis(("a", "b", "c"), rng.standard_normal((3, 40, 3)))
+    weights_module.WeightSolver(basis).solve_many(rng.standard_normal((4, 40, 3)))
+    assert before and seen == [1] * 4
+    assert [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"] == before
