@@ -24,8 +24,9 @@ diagonal), which costs little residual and keeps the weights' meaning. Frames th
 The per-frame problems are tiny (a few hundred rows, ~120 columns), and a threaded BLAS spends longer waking
 its threads than computing them, badly so on a busy machine (a render farm, or tests beside the bake): a
 242 x 121 gradient took 3.4 ms with two OpenBLAS threads against 0.04 ms with one on this machine under
-load, and ``./fh speak`` of 56.6 s of speech spent 43.6 s in the weight fit, 11.4 s with one BLAS thread for the whole process (both runs under load). So the
-frame loops run with one BLAS thread (``threadpoolctl``); the large products of a block keep every thread.
+load, and ``./fh speak`` of 56.6 s of speech spent 43.6 s in the weight fit, 11.4 s with one BLAS thread for
+the whole process (both runs under load). So the frame loops run with one BLAS thread (``threadpoolctl``);
+the large products of a block keep every thread.
 """
 from __future__ import annotations
 
