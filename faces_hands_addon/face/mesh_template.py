@@ -81,23 +81,28 @@ def _skin_mesh(source: HeadTemplate, transfer: MeshTransfer, vertices, landmarks
     for name in ("eye_L_upper", "eye_L_lower", "eye_R_upper", "eye_R_lower", "lips_outer_upper",
                  "lips_outer_lower", "eyebrow_L_upper", "eyebrow_R_upper"):
         if name in source.inputs.contours:
-            nearest = local[_nearest_active(vertices, active, landmarks[source.inputs.contours[name]])]
+            points = transfer.eye_margins.get(name, landmarks[source.inputs.contours[name]])
+            nearest = local[_nearest_active(vertices, active, points)]
             contours[name] = nearest[np.sort(np.unique(nearest, return_index=True)[1])]
     return SkinMesh(nodes, sub_faces, sparse.identity(len(nodes), format="csr"), nodes, sub_faces, groups,
                     contours, dict(source.organs.eye_centres), source.skin.mouth_centre)
 
 
-def _lid_rigs(source: HeadTemplate, transfer: MeshTransfer, nodes, landmarks, surface, weight) -> dict[str, LidRig]:
+def _lid_rigs(source: HeadTemplate, transfer: MeshTransfer, nodes, landmarks, skin: SkinMesh,
+              weight) -> dict[str, LidRig]:
     """:class:`.kinematics.LidRig` on the mesh's own vertices around each eye: the margins are the landmark
     contours (densified, so vertices between landmarks are on the margin too), set up on the vertices near
-    the eye only; faded off the face by ``weight``, and off entirely for an eye the mesh has no opening for."""
+    the eye only; faded off the face by ``weight``, and off entirely for an eye the mesh has no opening for.
+    Where the mesh's own opening was found (:mod:`..fitting.eye_openings`), the margins are the mesh's
+    vertices along its edges (the skin's lid contours), so that the margins meet exactly when closed."""
     lids = {}
     for side in ("L", "R"):
-        upper = landmarks[source.inputs.contours[f"eye_{side}_upper"]]
-        lower = landmarks[source.inputs.contours[f"eye_{side}_lower"]]
+        own = f"eye_{side}_upper" in transfer.eye_margins
+        upper, lower = (nodes[skin.contours[f"eye_{side}_{lid}"]] if own
+                        else landmarks[source.inputs.contours[f"eye_{side}_{lid}"]] for lid in ("upper", "lower"))
         open_eye = float(transfer.openings.get(f"eye_{side}", True))
         lids[side] = LidRig(source.organs.eye_centres[side], nodes, _densify(upper), _densify(lower),
-                            eyeball_radius=source.organs.eye_radius, surface=surface,
+                            eyeball_radius=source.organs.eye_radius, surface=skin.group("surface"),
                             setup_radius=LID_SETUP_RADIUS, fade=weight * open_eye)
     return lids
 
@@ -120,7 +125,7 @@ def network_template(source: HeadTemplate, transfer: MeshTransfer, vertices: np.
                         transfer.lip_distance[nodes_index],
                         {k: v[nodes_index] for k, v in transfer.wrinkles.items()}, kinematic)
     organs = OrganRecord(dict(source.organs.eye_centres), source.organs.eye_radius,
-                         _lid_rigs(source, transfer, nodes, landmarks, skin.group("surface"), weight),
+                         _lid_rigs(source, transfer, nodes, landmarks, skin, weight),
                          dict(source.organs.parts), source.organs.tongue_pivot, source.organs.arches)
     template = HeadTemplate(source.resolution, source.inputs, record, source.bones, source.muscles, attachment,
                             organs)

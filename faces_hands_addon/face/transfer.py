@@ -17,7 +17,9 @@ Two things are decided on the artist's mesh itself, by its connectivity, because
 which *side of the mouth* a vertex is on (over the skin it is nearer the upper or the lower outer lip
 contour; for lips that touch, the upper lip's margin and the lower lip's margin share positions but not
 neighbours), and whether the mouth and the eyes are *open* (the path over the skin from the upper to the
-lower lip or lid is much longer than the straight line only if there is an opening between them).
+lower lip or lid is much longer than the straight line only if there is an opening between them; an eye is
+first looked for in a front view of the skin, :mod:`..fitting.eye_openings`, whose edges then are the lid
+margins: lid landmarks over an opening can settle on one lid).
 
 Vertices beyond the template's face (forehead above the hairline, temples, ears, under the chin, neck,
 shoulders) are not face skin: the muscle and lid influence fades out between ``FACE_DISTANCE`` and
@@ -84,6 +86,7 @@ class MeshTransfer:
     edges: np.ndarray | None = None     # (E, 2) the mesh's unique edges
     carrier: np.ndarray | None = None   # (n,) index into CARRIERS of the rigid part a separate shell rides, -1
     lip_margins: dict[str, np.ndarray] = field(default_factory=dict)   # vertex ids, sorted along +X
+    eye_margins: dict[str, np.ndarray] = field(default_factory=dict)   # "eye_L_upper"...: (k, 3) points, +X
     openings: dict[str, bool] = field(default_factory=dict)            # "mouth", "eye_L", "eye_R"
     warnings: list[str] = field(default_factory=list)
 
@@ -211,7 +214,7 @@ def transfer_to_mesh(template: HeadTemplate, vertices: np.ndarray, faces: np.nda
     if len(margins):
         d_margin = dijkstra(graph, indices=margins, min_only=True, limit=MOUTH_REGION)
         transfer.mouth_region |= (d_margin < MOUTH_REGION) & (face_weight > 0.5)
-    _openings(transfer, graph, vertices, landmarks, nearest_vertex)
+    _openings(transfer, graph, vertices, faces, landmarks, nearest_vertex, contours)
     return transfer
 
 
@@ -259,10 +262,27 @@ def _lip_margins(transfer: MeshTransfer, template: HeadTemplate, vertices: np.nd
         transfer.lip_margins[name] = margin[np.argsort(vertices[margin, 0], kind="stable")]
 
 
-def _openings(transfer: MeshTransfer, graph, vertices: np.ndarray, landmarks: np.ndarray, nearest_vertex) -> None:
-    """Mouth and eye openings on the artist's mesh (module docstring); warnings where there are none."""
+def _openings(transfer: MeshTransfer, graph, vertices: np.ndarray, faces: np.ndarray, landmarks: np.ndarray,
+              nearest_vertex, contours: dict) -> None:
+    """Mouth and eye openings on the artist's mesh (module docstring); warnings where there are none.
+
+    An eye's opening is first looked for in a front view of the main skin (:mod:`..fitting.eye_openings`): its
+    edges are the lid margins the lids are rigged on (``eye_margins``). Only where there is none there, the
+    lid landmarks decide as the lip landmarks do (they can settle on one lid where the lids fold back into
+    a socket, so they are not asked first)."""
+    from ..fitting.eye_openings import find_eye_opening
     checks = {"mouth": (0, 17, 0.15), "eye_R": (159, 145, 0.08), "eye_L": (386, 374, 0.08)}
+    count, component = connected_components(graph, directed=False)
+    main = int(np.argmax(np.bincount(component, transfer.face_weight > 0.5, count)))
+    skin_faces = faces[(component[faces] == main).all(axis=1)]
     for name, (upper, lower, reach) in checks.items():
+        if name != "mouth":
+            found = find_eye_opening(vertices, skin_faces, landmarks[contours[f"{name}_upper"]],
+                                     landmarks[contours[f"{name}_lower"]])
+            if found is not None:
+                transfer.eye_margins[f"{name}_upper"], transfer.eye_margins[f"{name}_lower"] = found.upper, found.lower
+                transfer.openings[name] = True
+                continue
         a, b = nearest_vertex(landmarks[[upper, lower]])
         transfer.openings[name] = a != b and _opening(graph, vertices, int(a), int(b), reach)
     if not transfer.openings["mouth"]:

@@ -12,7 +12,9 @@ automatically by registering the canonical face onto the target:
 3. optimal-step non-rigid ICP (Amberg et al. 2007) with a reverse (target -> template) term and a final
    point-to-plane stage (:mod:`.nicp`);
 4. each fitted template vertex is projected onto the target triangles: (triangle, barycentric) per
-   landmark, so markers can be re-projected after the artist drags them (:func:`.project_to_surface`).
+   landmark, so markers can be re-projected after the artist drags them (:func:`.project_to_surface`);
+5. the lid landmarks, which nothing holds over an eye opening, are moved onto the edges of the mesh's eye
+   openings seen from the front (:mod:`.eye_openings`).
 """
 from __future__ import annotations
 
@@ -25,7 +27,8 @@ from .nicp import affine_icp, nonrigid_icp, plane_refinement
 from .orientation import choose_orientation
 from .quality import FitRefused, check_fit, refusal
 from ..core.geometry import checked_mesh, triangle_normals
-from .surface import TargetSurface
+from .eye_openings import main_piece, snap_lids
+from .surface import TargetSurface, project_to_surface
 from .template import LEFT_TRAGUS, RIGHT_TRAGUS, face_template
 
 __all__ = ["LandmarkFit", "locate_landmarks", "MAX_RMS_FRACTION", "MIN_MATCHED_FRACTION"]
@@ -113,6 +116,19 @@ def _quality_gate(positions, vertices, faces, seed: int, similarity, choice) -> 
     return [c.as_dict() for c in checks]
 
 
+def _lids_on_openings(positions, hit, vertices, faces, template):
+    """Step 5: the lid landmarks onto the edges of the mesh's eye openings (:mod:`.eye_openings`; nothing
+    holds them over the opening), projected onto the surface; the positions, triangles and barycentrics."""
+    triangles, barycentric = hit.triangles.copy(), hit.barycentric.copy()
+    skin = main_piece(faces, hit.triangles)
+    moved, ids = snap_lids(positions, vertices, faces[skin], template.vertices, template.contours)
+    if len(ids):
+        positions = positions.copy()
+        positions[ids], tri, barycentric[ids] = project_to_surface(moved[ids], vertices, faces[skin])
+        triangles[ids] = np.flatnonzero(skin)[tri]
+    return positions, triangles, barycentric
+
+
 def locate_landmarks(target_vertices, target_faces, *, seed: int = 0, progress=None, forward: str | None = None,
                      up: str | None = None, check: bool = True) -> LandmarkFit:
     """Locate the 468 MediaPipe landmarks on a head mesh in any axis orientation, at any scale and position.
@@ -181,12 +197,13 @@ def locate_landmarks(target_vertices, target_faces, *, seed: int = 0, progress=N
             f"{choice.name}; check that the mesh is a human face (give its axes with --forward/--up), or "
             "place the landmarks by hand", vertices, faces, positions, similarity.rotation.T,
             orientation=choice.report())
+    positions, triangles, barycentric = _lids_on_openings(positions, hit, vertices, faces, template)
     if check:
         report(0.95, "checking the fit")
     checks = _quality_gate(positions, vertices, faces, seed, similarity, choice) if check else []
     report(1.0, "landmarks located")
     return LandmarkFit(
-        positions=positions, triangles=hit.triangles.copy(), barycentric=hit.barycentric.copy(),
+        positions=positions, triangles=triangles, barycentric=barycentric,
         fitted_template=fitted, matched=matched.copy(), distances=distances, rms_distance=rms,
         max_distance=max_distance, matched_fraction=matched_fraction, face_width=face_width,
         search_score=float(match.score), rigid_scale=float(similarity.scale * unit),

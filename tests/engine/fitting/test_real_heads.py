@@ -10,6 +10,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from faces_hands_addon.face.audit_targets import audit_shapes
+from faces_hands_addon.face.expressions import load_expressions
+from faces_hands_addon.face.fitted import build_fitted_rig
 from faces_hands_addon.fitting import locate_landmarks
 from faces_hands_addon.fitting.template import NOSE_TIP, face_template
 
@@ -65,3 +68,29 @@ def test_other_real_heads(name):
     assert fit.orientation["orientation"] == "forward +Z, up +Y"
     assert all(c["ok"] for c in fit.checks), [c for c in fit.checks if not c["ok"]]
     _features_in_place(fit, (0, 0, 1), (0, 1, 0))
+
+
+def test_makehuman_lid_landmarks_span_its_eye_opening(neutral):
+    """The MakeHuman lids fold back into an eye socket (no hole): the registration alone put the upper
+    lid landmarks on the lower lid's margin (159-145 4.7 mm and 386-374 3.0 mm apart, the opening is
+    ~10 mm tall); they are moved onto the edges of the opening seen from the front."""
+    _, _, fit = neutral
+    p = fit.positions
+    for upper, lower in ((159, 145), (386, 374)):
+        height = (p[upper] - p[lower]) @ np.array([0.0, 1.0, 0.0])
+        assert height > 0.06 * fit.face_width, (upper, lower, height / fit.face_width)
+
+
+@pytest.mark.parametrize("name", ["makehuman_neutral", "soma"])
+def test_fitted_real_heads_blink_closed(name):
+    """Issue 10: the eyes of a rig fitted to a head made by someone else close on eyeBlink (no 'eyelids
+    cannot open or close' warning, open at rest, the lid gap gone and no iris seen from the front)."""
+    vertices, faces = _head(name)
+    rig = build_fitted_rig(vertices, faces, seed=0)
+    assert not [w for w in rig.warnings if "eyelids" in w], rig.warnings
+    report = audit_shapes(rig, load_expressions("arkit"), ("eyeBlinkLeft", "eyeBlinkRight"))
+    for shape, side in (("eyeBlinkLeft", "L"), ("eyeBlinkRight", "R")):
+        figures, _ = report["rows"][shape]
+        assert report["neutral"][f"gap_{side}"] > 6.0, report["neutral"][f"gap_{side}"]
+        assert figures[f"gap_{side}"] < 0.5 and figures[f"iris_{side}"] == 0, (shape, figures[f"gap_{side}"],
+                                                                                figures[f"iris_{side}"])
