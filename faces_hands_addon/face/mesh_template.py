@@ -12,7 +12,8 @@ from scipy.spatial import cKDTree
 
 from ..core import geometry
 from .attachment import signed_bone_distance
-from .kinematics import LidRig
+from . import organs as organ_meshes
+from .kinematics import LidRig, cornea_bulge
 from .skin import GROUPS, SkinMesh
 from .template import HeadTemplate, OrganRecord, SkinRecord
 from .transfer import MeshTransfer
@@ -20,6 +21,9 @@ from .transfer import MeshTransfer
 __all__ = ["network_template"]
 
 LID_SETUP_RADIUS = 0.025     # m: lid rigs are set up on the vertices this close to the eye (reach: 22 mm)
+EYE_CLEARANCE = 0.0005       # m the mesh's lid margins are kept outside the eyeball and cornea (_eye_centres)
+LINING_FACING, LINING_REACH = 0.1, 0.004   # cosine towards the eye centre; m beyond the eyeball (_eye_linings)
+EYE_STEP, EYE_MAX_SHIFT = 0.0001, 0.006     # m: the eyeball moves back in these steps, at most this far
 
 
 def _bone_contact(bones, nodes: np.ndarray, node_bone: np.ndarray):
@@ -88,6 +92,49 @@ def _skin_mesh(source: HeadTemplate, transfer: MeshTransfer, vertices, landmarks
                     contours, dict(source.organs.eye_centres), source.skin.mouth_centre)
 
 
+def _eye_centres(source: HeadTemplate, transfer: MeshTransfer, skin: SkinMesh) -> dict[str, np.ndarray]:
+    """The eyeball centres fitted to the mesh's own eye (thesis 3.1.2 "Eyes, Teeth, Tongue": the lids slide
+    over the eyeball). The template places its eyeball by the landmarks; where the mesh's lid margins were
+    found (:mod:`..fitting.eye_openings`) and lie inside that eyeball (the MakeHuman lids, up to ~1.1 mm
+    inside the eyeball and cornea), the lids closing over it were pushed out and folded: the eyeball is moved
+    straight back (+Y), by the least step of ``EYE_STEP``, until every margin vertex lies ``EYE_CLEARANCE``
+    outside its sphere and cornea (never forward; eyes without own margins keep the template's centre).
+    MakeHuman neutral: 1.9 / 2.0 mm back (L / R)."""
+    centres = {}
+    radius = source.organs.eye_radius
+    for side, centre in source.organs.eye_centres.items():
+        centre = np.asarray(centre, np.float64)
+        centres[side] = centre
+        if f"eye_{side}_upper" not in transfer.eye_margins:
+            continue
+        ids = np.concatenate([skin.contours[f"eye_{side}_upper"], skin.contours[f"eye_{side}_lower"]])
+        margin = skin.vertices[ids]
+        for step in np.arange(0.0, EYE_MAX_SHIFT + 1e-9, EYE_STEP):
+            moved = margin - (centre + np.array([0.0, step, 0.0]))
+            r = np.linalg.norm(moved, axis=1)
+            ahead = np.degrees(np.arccos(np.clip(-moved[:, 1] / np.maximum(r, 1e-12), -1.0, 1.0)))
+            if np.all(r >= radius * (1.0 + cornea_bulge(ahead)) + EYE_CLEARANCE):
+                centres[side] = centre + np.array([0.0, step, 0.0])
+                break
+    return centres
+
+
+def _eye_linings(source: HeadTemplate, transfer: MeshTransfer, skin: SkinMesh, normals: np.ndarray) -> None:
+    """Skin that faces the eyeball is the lids' lining (the conjunctiva, the template's ``lid_back``): where the
+    lids fold back into a socket (MakeHuman) it lies on the eyeball behind the margins. It is regrouped from
+    ``surface`` to ``lid_back``, so that closing lids carry it round the eyeball instead of lifting it over
+    the cornea and the eye guards pushing it out (which folded the upper lid's underside), as the
+    template's own lid backs (thesis 3.1.2 "Eyes, Teeth, Tongue")."""
+    for side, centre in skin.eye_centres.items():
+        if f"eye_{side}_upper" not in transfer.eye_margins:
+            continue
+        out = skin.vertices - centre
+        distance = np.linalg.norm(out, axis=1)
+        facing = np.einsum("ij,ij->i", normals, out) < -LINING_FACING * np.maximum(distance, 1e-12)
+        lining = facing & (distance < source.organs.eye_radius + LINING_REACH) & skin.group("surface")
+        skin.groups[lining] = (skin.groups[lining] & ~GROUPS["surface"]) | GROUPS["lid_back"]
+
+
 def _lid_rigs(source: HeadTemplate, transfer: MeshTransfer, nodes, landmarks, skin: SkinMesh,
               weight) -> dict[str, LidRig]:
     """:class:`.kinematics.LidRig` on the mesh's own vertices around each eye: the margins are the landmark
@@ -101,7 +148,7 @@ def _lid_rigs(source: HeadTemplate, transfer: MeshTransfer, nodes, landmarks, sk
         upper, lower = (nodes[skin.contours[f"eye_{side}_{lid}"]] if own
                         else landmarks[source.inputs.contours[f"eye_{side}_{lid}"]] for lid in ("upper", "lower"))
         open_eye = float(transfer.openings.get(f"eye_{side}", True))
-        lids[side] = LidRig(source.organs.eye_centres[side], nodes, _densify(upper), _densify(lower),
+        lids[side] = LidRig(skin.eye_centres[side], nodes, _densify(upper), _densify(lower),
                             eyeball_radius=source.organs.eye_radius, surface=skin.group("surface"),
                             setup_radius=LID_SETUP_RADIUS, fade=weight * open_eye)
     return lids
@@ -118,15 +165,20 @@ def network_template(source: HeadTemplate, transfer: MeshTransfer, vertices: np.
     interpolation = transfer.interpolation[nodes_index]
     normals = _outward_normals(nodes, sub_faces, interpolation @ source.skin.normals, weight)
     skin = _skin_mesh(source, transfer, vertices, landmarks, nodes_index, local, sub_faces, active, kinematic)
+    skin.eye_centres = _eye_centres(source, transfer, skin)
+    _eye_linings(source, transfer, skin, normals)
+    parts = dict(source.organs.parts)
+    for side, centre in skin.eye_centres.items():
+        parts[f"eye_{side}"] = organ_meshes.eyeball_mesh(centre, source.organs.eye_radius, f"eye_{side}")
     node_bone = transfer.node_bone[nodes_index]
     attachment = source.attachment.transferred(interpolation, weight, node_bone, transfer.jaw_weight[nodes_index],
                                                _bone_contact(source.bones, nodes, node_bone))
     record = SkinRecord(skin, normals, geometry.vertex_areas(nodes, sub_faces), transfer.mouth_region[nodes_index],
                         transfer.lip_distance[nodes_index],
                         {k: v[nodes_index] for k, v in transfer.wrinkles.items()}, kinematic)
-    organs = OrganRecord(dict(source.organs.eye_centres), source.organs.eye_radius,
-                         _lid_rigs(source, transfer, nodes, landmarks, skin, weight),
-                         dict(source.organs.parts), source.organs.tongue_pivot, source.organs.arches)
+    organs = OrganRecord(dict(skin.eye_centres), source.organs.eye_radius,
+                         _lid_rigs(source, transfer, nodes, landmarks, skin, weight), parts,
+                         source.organs.tongue_pivot, source.organs.arches)
     template = HeadTemplate(source.resolution, source.inputs, record, source.bones, source.muscles, attachment,
                             organs)
     return template, nodes_index, passive

@@ -81,10 +81,13 @@ def test_makehuman_lid_landmarks_span_its_eye_opening(neutral):
         assert height > 0.06 * fit.face_width, (upper, lower, height / fit.face_width)
 
 
-@pytest.mark.parametrize("name", ["makehuman_neutral", "soma"])
-def test_fitted_real_heads_blink_closed(name):
+@pytest.mark.parametrize("name, unfolded", [("makehuman_neutral", True), ("soma", False)])
+def test_fitted_real_heads_blink_closed(name, unfolded):
     """Issue 10: the eyes of a rig fitted to a head made by someone else close on eyeBlink (no 'eyelids
-    cannot open or close' warning, open at rest, the lid gap gone and no iris seen from the front)."""
+    cannot open or close' warning, open at rest, the lid gap gone and no iris seen from the front). On the
+    MakeHuman head, whose lids fold back into a socket, the closed lids do not fold either: no inverted
+    triangle beyond the audit's limit (10 and 13 when the eyeball sat in front of the mesh's lid margins and
+    the socket lining was lifted over it). SOMA keeps 3 on its right inner canthus (not asked yet)."""
     vertices, faces = _head(name)
     rig = build_fitted_rig(vertices, faces, seed=0)
     assert not [w for w in rig.warnings if "eyelids" in w], rig.warnings
@@ -94,3 +97,6 @@ def test_fitted_real_heads_blink_closed(name):
         assert report["neutral"][f"gap_{side}"] > 6.0, report["neutral"][f"gap_{side}"]
         assert figures[f"gap_{side}"] < 0.5 and figures[f"iris_{side}"] == 0, (shape, figures[f"gap_{side}"],
                                                                                 figures[f"iris_{side}"])
+        if unfolded:
+            failed = report["rows"][shape][1]
+            assert not [f for f in failed if f.startswith("inverted")], (shape, failed)
