@@ -87,7 +87,8 @@ def test_fitted_real_heads_blink_closed(name, unfolded):
     cannot open or close' warning, open at rest, the lid gap gone and no iris seen from the front). On the
     MakeHuman head, whose lids fold back into a socket, the closed lids do not fold either: no inverted
     triangle beyond a few (10 and 13 when the eyeball sat in front of the mesh's lid margins and the socket
-    lining was lifted over it; 0 or 2 now, depending on the machine's floating-point rounding). SOMA keeps 3 on its right inner canthus (not asked yet)."""
+    lining was lifted over it; 0 or 2 now, depending on the machine's floating-point rounding). SOMA keeps 3
+    on its right inner canthus (not asked yet)."""
     vertices, faces = _head(name)
     rig = build_fitted_rig(vertices, faces, seed=0)
     assert not [w for w in rig.warnings if "eyelids" in w], rig.warnings
@@ -97,5 +98,5 @@ def test_fitted_real_heads_blink_closed(name, unfolded):
         assert report["neutral"][f"gap_{side}"] > 6.0, report["neutral"][f"gap_{side}"]
         assert figures[f"gap_{side}"] < 0.5 and figures[f"iris_{side}"] == 0, (shape, figures[f"gap_{side}"],
                                                                                 figures[f"iris_{side}"])
-        if unfolded:     # 0 on one CPU, 2 on another (rounding); 10 and 13 before the eyeball moved back
+        if unfolded:
             assert figures["inverted"] <= 3, (shape, figures["inverted"])
