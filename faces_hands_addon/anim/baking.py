@@ -19,6 +19,7 @@ from typing import Iterator, Mapping
 
 from ..core.controls import clamp_controls
 from ..core.rig import Pose, Rig
+from .closure_drive import ClosureDrive
 from .layers import BASE_LAYER, LayerTable
 from .shape_cache import ShapeCache
 
@@ -68,15 +69,21 @@ def expression_shapes(rig: Rig, expressions: Mapping[str, Mapping[str, float]], 
     rig.reset()
 
 
-def animation_poses(rig: Rig, table: LayerTable, dt: float, settle_time: float = 1.0) -> Iterator[BakedShape]:
+def animation_poses(rig: Rig, table: LayerTable, dt: float, settle_time: float = 1.0,
+                    drive: ClosureDrive | None = None) -> Iterator[BakedShape]:
     """Simulate through the frames of ``table``: settle at the first frame's values, then one ``dt`` step per
-    frame. Yields a :class:`BakedShape` per frame, named ``FH.frame_<frame>``."""
+    frame. Yields a :class:`BakedShape` per frame, named ``FH.frame_<frame>``. With a ``drive``
+    (:mod:`.closure_drive`), the lip closures it holds are fed early enough to be shut in time."""
     if not len(table):
         rig.reset()
         return
-    yield BakedShape(frame_key_name(int(table.frames[0])), rig.settled(table.at(0), settle_time, dt))
-    for index in range(1, len(table)):
-        yield BakedShape(frame_key_name(int(table.frames[index])), rig.step(table.at(index), dt))
+    if drive is not None:
+        poses = drive.poses(rig, table, dt, settle_time)
+    else:
+        poses = (rig.settled(table.at(0), settle_time, dt) if index == 0 else rig.step(table.at(index), dt)
+                 for index in range(len(table)))
+    for index, pose in enumerate(poses):
+        yield BakedShape(frame_key_name(int(table.frames[index])), pose)
 
 
 def frame_key_name(frame: int) -> str:

@@ -74,6 +74,7 @@ class FaceRig:
         self._targets = None
         self.time = 0.0
         self.frame_substeps = 0
+        self._lip_midline: tuple[int, int] | None = None
 
     # -- controls --------------------------------------------------------------------------------
     def control_specs(self) -> dict[str, ControlSpec]:
@@ -231,6 +232,18 @@ class FaceRig:
             if frame >= 2 and float(np.abs(self.face.integrator.velocity).max()) < tolerance:
                 break
         return self.positions
+
+    def lip_gap(self) -> float:
+        """The simulated lips' gap at the midline now (m, head space; negative when pressed together): the
+        inner upper lip's lowest midline node over the inner lower lip's (3.1.3 closures; used by the
+        per-frame bake's ``anim.closure_drive``)."""
+        if self._lip_midline is None:
+            contours, rest = self.template.skin.contours, self._rest
+            self._lip_midline = tuple(int(nodes[np.argmin(np.abs(rest[nodes, 0]))]) for nodes in
+                                      (np.asarray(contours[k]) for k in ("lips_inner_upper", "lips_inner_lower")))
+        upper, lower = self._lip_midline
+        z = self.face.network.positions[2]
+        return float(z[upper] - z[lower])
 
     def substeps_per_frame(self, dt: float = 1 / 24) -> int:
         """Substeps the stability guard uses for a frame of ``dt`` seconds (after the cap)."""

@@ -14,7 +14,7 @@ import json
 import bpy
 import numpy as np
 
-from ...faces_hands_addon.anim import baking, semantic, weights
+from ...faces_hands_addon.anim import baking, closure_drive, semantic, weights
 from ...faces_hands_addon.core.errors import UserError
 from ...faces_hands_addon.physics import kernel
 from . import controls, shape_keys
@@ -30,7 +30,8 @@ MAX_FRAMES = 5000            # per-frame cache only: one shape key per frame
 #: object property of a speech take's lip closures (JSON [[start frame, end frame, viseme], ...])
 CLOSURES_PROPERTY = "fh_lip_closures"
 PHYSICS_LEAD_S = 0.030        # animation bakes feed the simulation this far ahead: it trails its targets
-CLOSURE_RAMP_S = 0.067        # the cache closes the lips this long before a closure starts (2 frames at 30 fps)
+CLOSURE_RAMP_S = 0.067        # the cache closes the lips at least this long before a closure starts (2 frames at 30 fps)
+CLOSURE_MAX_LEAD_S = 0.2      # ... and at most this long, when the lips are far apart (anim.closure_drive)
 FRAME_BLOCK = 64            # frames simulated and fitted per step of the weights bake
 
 
@@ -64,17 +65,28 @@ def animated_table(obj, scene, specs, max_frames: int | None = None):
 
 def cache_table(obj, scene, specs, table, targets, dt: float):
     """What the per-frame cache simulates: the layers ``PHYSICS_LEAD_S`` ahead (the simulation trails its
-    targets by about that much), and on the frames from ``CLOSURE_RAMP_S`` before each lip closure of the
-    take to its end, the closure's viseme articulation (``semantic.with_closed_controls``) so the simulated
-    lips have met when the closure starts. On 47 labelled bilabials (``bench/lipsync_accuracy.py --cache``):
-    closed 30 % -> 96 %, closure-midpoint lag +36 ms -> -15 ms. On Festival's 121 bilabials (14 sentences,
-    one cache each): closed 93.4 %, 95.9 % within a frame, lag -15 ms; the 8 missed stay 1.0-3.2 mm open,
-    6 of them in phones of 45-90 ms that the frames around them never reach."""
-    lead = PHYSICS_LEAD_S / dt
-    shifted = controls.sample_layers(obj, scene, specs, table.frames, lead=lead)
-    spans = [(a - CLOSURE_RAMP_S / dt, b, viseme) for a, b, viseme in closure_spans(obj)]
-    rows = semantic.closure_frames(np.asarray(table.frames, np.float64) + lead, spans)
-    return semantic.with_closed_controls(shifted, rows, targets, specs)
+    targets by about that much) and, for the take's lip closures (on the frames shown during them), an
+    ``anim.closure_drive.ClosureDrive`` that feeds each closure's viseme articulation
+    (``semantic.with_closed_controls``) from ``CLOSURE_RAMP_S`` before it, or earlier (up to ``CLOSURE_MAX_LEAD_S``) where simulating ahead finds the lips still apart
+    when it starts. Returns (table, drive or None). The fixed 2-frame lead alone closed 93.4 % of Festival's
+    121 bilabials in the cache (14 sentences, one cache each, lag -15 ms): the 8 missed stayed 1.0-3.2 mm
+    open, 7 of them short /b p/ after an open vowel."""
+    shifted = controls.sample_layers(obj, scene, specs, table.frames, lead=PHYSICS_LEAD_S / dt)
+    frames = np.asarray(table.frames, np.float64)      # closures are checked where they are shown
+    max_lead = int(np.ceil(CLOSURE_MAX_LEAD_S / dt))
+    spans, rows = [], {}
+    for start, end, viseme in closure_spans(obj):
+        must = semantic.closure_frames(frames, [(start, end, viseme)]) if viseme in targets else {}
+        if not must:
+            continue
+        first, last = min(must), max(must)
+        always = min(int(np.searchsorted(frames, start - CLOSURE_RAMP_S / dt)), first)
+        spans.append((always, first, last))
+        rows.update({row: viseme for row in range(max(first - max_lead, 0), last + 1)})
+    if not spans:
+        return shifted, None
+    closed = semantic.with_closed_controls(shifted, rows, targets, specs)
+    return shifted, closure_drive.ClosureDrive(closed, sorted(spans), max_lead)
 
 
 class BakeJob(Job):
@@ -102,8 +114,8 @@ class BakeJob(Job):
             self.total, self.label = len(table), f"Baking {len(table)} frames"
             kernel.expect_frames(len(table))
             dt = frame_duration(context.scene)
-            table = cache_table(obj, context.scene, specs, table, expressions or {}, dt)
-            self.generator = baking.animation_poses(self.rig, table, dt)
+            table, self.drive = cache_table(obj, context.scene, specs, table, expressions or {}, dt)
+            self.generator = baking.animation_poses(self.rig, table, dt, drive=self.drive)
 
     def step(self) -> float:
         shape = next(self.generator, None)
