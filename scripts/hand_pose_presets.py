@@ -36,7 +36,7 @@ def curled(mcp=85, pip=100, dip=60):
     """The four fingers of a fist. The long flexors pull curled fingers together (they adduct the MCP
     joints) until they touch, and the hand's finger contact (faces_hands_addon/hand/contact.py) keeps them
     side by side; the abductions here only say which way each finger leans."""
-    out = {}
+    out = {"pinky-finger-metacarpal.flexion": 10}      # the hypothenar cups the palm (CMC V at its limit)
     for f, a in zip(FINGERS, (0, 0, 5, 10)):
         out.update(finger(f, mcp, pip, dip, a))
     return out
@@ -50,14 +50,20 @@ TARGETS = {
         **{k: v for f, a in zip(FINGERS, (0, 3, 0, 15)) for k, v in finger(f, 20 + 2 * FINGERS.index(f),
                                                                          25 + 2 * FINGERS.index(f), 10, a).items()},
         **thumb(10, 5, 10, 10)}),
-    "fist": ("all fingers curled into the palm, thumb over them", {**curled(), **thumb(35, -20, 45, 40)}),
+    # the thumb lies over the curled fingers, its pad at the middle phalanges (searched: no thumb sample inside a
+    # finger's capsule, the distal pad within 2 mm of the index and middle fingers' middle phalanges and on their
+    # outer side, the thumb pointing across the hand). Before: (35, -20, 45, 40) for the fist, (35, -20, 40, 35)
+    # for the point: the thumb passed through the fingertips (9-10 mm between the bone axes) and was hidden
+    "fist": ("all fingers curled into the palm, thumb over them", {**curled(), **thumb(10, 10, 35, 70)}),
     "point": ("index finger straight, the others curled", {**curled(), **finger("index", 0, 0, 0),
-                                                           **thumb(35, -20, 40, 35)}),
+                                                           **thumb(25, 10, 35, 40)}),
     # the thumb points radially, off the fist (Table 6.4 limits: CMC I flexion -35..55, abduction -40..35, MCP I
-    # -30..85, IP -60..90): CMC extended -30, abducted 10, MCP and IP extended -15 put the tip direction 80 deg
-    # from the hand axis (0.98 radial). Before: (-15, 15, 0, 0), 56 deg from the axis and 0.45 palmar, so it
-    # pointed at the three-quarter camera and lay along the curled index finger in that view
-    "thumbs_up": ("fist with the thumb stretched out", {**curled(), **thumb(-30, 10, -15, -15)}),
+    # -30..85, IP -60..90). Before: (-15, 15, 0, 0), 56 deg from the axis and 0.45 palmar, so it pointed at the
+    # three-quarter camera and lay along the curled index finger in that view; then (-30, 10, -15, -15), whose
+    # IP joint stayed at 0 (the thumb's extensors, Table A.1, cannot also hold that CMC abduction: extensor
+    # pollicis brevis at 0.98). Now searched for the smallest static torque residual of the thumb with the tip
+    # more than 70 deg off the hand axis: (-30, 5, -25, -15) reaches (-30, 5, -25, -17), 84 deg, 1.00 radial
+    "thumbs_up": ("fist with the thumb stretched out", {**curled(), **thumb(-30, 5, -25, -15)}),
     # the other three fingers less curled and the ring and little fingers abducted (with MyoHand's tilted axes,
     # at (30, 40-45, 20) the ring finger curled across the middle finger, seen from the palm); the thumb pad meets the index pad: the thumb adducted towards the index, its IP joint flexed, the index
     # curled at the PIP and DIP joints (a tip pinch); searched for pads that touch and face each other and a
@@ -67,11 +73,15 @@ TARGETS = {
     "pinch": ("thumb and index tips meet", {**finger("index", 71, 105, 78, -3), **finger("middle", 25, 30, 15, 3),
                                              **finger("ring", 25, 30, 15, 5), **finger("pinky", 25, 30, 15, 15),
                                              **thumb(2, -22, 30, 90)}),
-    # poses.json adds abductor_digiti_minimi 0.3 by hand: Solve Contractions leaves it out (it also flexes the
-    # MCP joint) and the little finger stayed by the ring finger (abduction 0.4 degrees; with it 15)
-    "spread": ("fingers straight and spread apart", {**finger("index", 0, 0, 0, 25), **finger("middle", 0, 0, 0, 0),
-                                                     **finger("ring", 0, 0, 0, 12), **finger("pinky", 0, 0, 0, 14),
-                                                     **thumb(-15, 15, -5, 0)}),
+    # abductor digiti minimi is pinned (GRIP): Solve Contractions alone leaves it out (it also flexes the CMC
+    # joint) and the little finger stayed by the ring finger (abduction 0.4 degrees; with it 15). The DIP joints
+    # extended 10 degrees (the little finger's to its limit, where abductor digiti minimi holds it: with -10 the
+    # solver balanced that with the deep flexor, which adducts, and the little finger stopped at 10 degrees of
+    # abduction, behind the ring finger seen from the palm) and the CMC V flexed to its limit (at 0 they
+    # reached -15 and 10 all the same)
+    "spread": ("fingers straight and spread apart", {**finger("index", 0, 0, -10, 25), **finger("middle", 0, 0, -10, 0),
+                                                     **finger("ring", 0, 0, -10, 12), **finger("pinky", 0, 0, -15, 15),
+                                                     "pinky-finger-metacarpal.flexion": 10, **thumb(-15, 15, -5, 0)}),
     # the little finger curled like the ring finger: at (40, 55, 25) its tip crossed the ring finger's, seen
     # from the palm
     "computer_graphics_scientist": ("the typical computer graphics scientist's pose (Fig. 6.20): the hand on a "
@@ -82,15 +92,28 @@ TARGETS = {
 
 # Co-contraction of intrinsic muscles that have geometric twins (Fig. 6.15), pinned before the solve so Solve
 # Contractions finds the other contractions around them: minimal effort alone leaves them near 0 (holding a
-# pose needs no grip force) and the fist showed no swelling (skin lift 0.2-0.5 mm; with these 3.0 mm at the
-# hypothenar). The values are chosen, not measured. Tried and dropped: the first dorsal interosseus 0.5 in the
-# pinch (1.4 mm at the first web, but 25 skin pockets at the finger bases against 22 allowed);
-# the thenar muscles above 0.15 (opponens, adductor pollicis: the thumb's IP joint then missed its target by
-# 40-130 degrees) and flexor digiti minimi brevis 0.5 (the little finger hooked out of the fist)
+# pose needs no grip force), so the grips showed no swelling. The values are chosen, not measured:
+# * the hypothenar: opponens digiti minimi only flexes the CMC V joint (Table A.1), which the curled poses put
+#   at its Table 6.4 limit (10 degrees, the palm cupped), so any contraction of it is held there; with that
+#   target the solver also recruits flexor and abductor digiti minimi (0.7 and 0.4) to curl the little finger,
+#   and the mean joint error fell (fist 5.5 -> 2.6 degrees). Skin lift over the hypothenar 6.5-7.6 mm
+#   (bench/hand_bulges.py; 2.7 mm before);
+# * the first dorsal interosseus (fist, pinch, spread) is balanced by the index finger's other muscles; a firm
+#   tip pinch drives it fully: 5 mm at the first web in the pinch, 2.5 mm in the spread (0.5 mm before);
+# * the thenar: opponens and adductor pollicis flex the thumb's MCP joint by 7 mm moment arms, and only the
+#   extensor pollicis brevis (46 N x 3 mm) extends that joint without extending the IP joint (whatever the
+#   extensor pollicis longus adds there, the flexor pollicis longus that must balance its IP torque takes back),
+#   so the thumb holds them to about 0.1 (0.2 with the thumb inside the fingers, 0.25 sent the IP joint 22
+#   degrees off); more needs the fingers' push on the thumb. A frictionless thumb-finger contact that carried
+#   that push was tried and dropped: from rest the grip sent the thumb across the palm to its limits before
+#   the fingers closed, and from a closed hand the thumb slid off the fingers. Thenar lift stays 0.5-0.6 mm.
+# Also dropped: flexor digiti minimi brevis 0.5 pinned (the little finger hooked out of the fist)
 GRIP = {
-    "fist": {"opponens_pollicis": 0.15, "opponens_digiti_minimi": 0.6},
-    "point": {"opponens_digiti_minimi": 0.6},
-    "thumbs_up": {"opponens_digiti_minimi": 0.6},
+    "fist": {"opponens_pollicis": 0.1, "opponens_digiti_minimi": 1.0, "dorsal_interosseus_1": 0.3},
+    "point": {"opponens_digiti_minimi": 0.8},
+    "thumbs_up": {"opponens_digiti_minimi": 0.8},
+    "pinch": {"dorsal_interosseus_1": 1.0, "adductor_pollicis": 0.1},
+    "spread": {"dorsal_interosseus_1": 0.5, "abductor_digiti_minimi": 0.6},
 }
 
 MOTIONS = {

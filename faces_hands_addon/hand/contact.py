@@ -80,6 +80,7 @@ class FingerContact:
         self.signs = np.array([[skeleton.dofs[k].sign for k in row] for row in flat])
         self.flexion_sign = np.array([skeleton.dofs[k].sign for k in self.flexion])
         self._flat_dofs = flat
+        self._last = None
 
     def _axes(self, transforms: np.ndarray, angles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """World axes (fingers, 2, 3) of the MCP abduction and rotation (signed like the DOFs; the joint
@@ -94,8 +95,16 @@ class FingerContact:
             + transforms[self.parents][:, :3, 3]
         return np.stack([abduction, rotation], axis=1), centre
 
+    def transforms(self, angles: np.ndarray) -> np.ndarray:
+        """The bone transforms of ``angles``: the ones the last contact check computed when the joints have not
+        moved since (usually the case after :meth:`resolve`), else forward kinematics."""
+        if self._last is not None and np.array_equal(self._last[0], angles):
+            return self._last[1]
+        return self.skeleton.bone_transforms(angles)
+
     def _sides(self, angles: np.ndarray):
         transforms = self.skeleton.bone_transforms(angles)
+        self._last = (angles.copy(), transforms)
         m = transforms[self.owner]
         points = np.einsum("fsij,fsj->fsi", m[..., :3, :3], self.rest) + m[..., :3, 3]
         m = transforms[self.mcp]

@@ -197,6 +197,12 @@ class GeometricMuscles:
         """(N, 3) outward motion of the skin nodes' attachment points for the muscles' ``displacement``."""
         return self.skin_weights @ displacement
 
+    def footprint_owner(self, least: float = 0.05) -> np.ndarray:
+        """(N,) for each skin node the muscle whose footprint weighs most on it, -1 where none weighs ``least``."""
+        per_muscle = np.column_stack([np.asarray(self.skin_weights[:, self.layout.muscle == m].sum(axis=1)).ravel()
+                                      for m in range(len(self.names))])
+        return np.where(per_muscle.max(axis=1) >= least, per_muscle.argmax(axis=1), -1)
+
     def grid_quads(self) -> np.ndarray:
         """(Q, 4) point indices of the muscle surfaces' quads, for display."""
         quads, offset = [], 0

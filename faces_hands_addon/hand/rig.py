@@ -5,8 +5,9 @@ Per frame, in the order of 6.2.1 "Animation" and 6.2.2: the mixed contraction va
 muscles, which rotate the bones (:mod:`.pseudo`, Eqs. 6.1-6.9, joint limits of Table 6.4), and touching
 fingers are kept side by side (:mod:`.contact`, beyond the thesis); the geometric
 muscles follow their bones and bulge (:mod:`.geometric`); every skin node's attachment point is carried by
-the bones (the skin's skinning weights) and pushed out by the muscle beneath it; then the mass-spring
-network is integrated (leapfrog Verlet, :mod:`..physics`) and the skin follows.
+the bones (the skin's skinning weights), pushed out by the muscle beneath it and kept on its own side of each
+bent finger joint (:mod:`.crease`, beyond the thesis); then the mass-spring network is integrated (leapfrog
+Verlet, :mod:`..physics`) and the skin follows.
 
 Outputs: ``Pose.positions["skin"]`` (N, 3) float32, ``Pose.positions["muscles"]`` (the geometric muscles'
 outer surfaces, for display) and ``Pose.transforms[bone]`` (4x4, rest -> pose) for the 21 bones, named like
@@ -24,11 +25,13 @@ import numpy as np
 from scipy import sparse
 
 from ..anim.layers import mix
+from ..core import geometry
 from ..core.controls import ControlSpec, clamp_controls
 from ..core.errors import UserError
 from ..core.rig import Pose, read_rig_archive, write_rig_archive
 from . import HAND_RIG_FORMAT
 from .contact import FingerContact
+from .crease import Creases, bone_radii
 from .geometric import build_geometric_muscles
 from .network import HandMaterial, build_hand_network
 from .photo import photo_warp
@@ -88,6 +91,8 @@ class HandRig:
         self.hand = build_hand_network(template.skin.vertices, template.skin.faces, material)
         self.material = self.hand.material
         self._weights = sparse.csr_matrix(template.skin.weights)
+        self.creases = Creases(sk, template.skin.vertices, template.skin.weights,
+                               bone_radii(sk, template.skin.vertices, template.skin.weights))
         self._rest = template.skin.vertices.copy()
         self.controls = {name: spec.default for name, spec in self.specs.items()}
         self.identity = ""
@@ -152,13 +157,14 @@ class HandRig:
 
     # -- simulation ------------------------------------------------------------------------------
     def attachment_targets(self, transforms: np.ndarray, contraction: np.ndarray) -> np.ndarray:
-        """Bone-carried (linear blend of the bone transforms) rest positions plus the muscles' bulge (N, 3)."""
+        """Bone-carried (linear blend of the bone transforms) rest positions plus the muscles' bulge, with the
+        flexion creases kept apart (N, 3)."""
         flat = transforms[:, :3, :].reshape(len(transforms), 12)
         blended = (self._weights @ flat).reshape(-1, 3, 4)
         target = np.einsum("nij,nj->ni", blended[:, :, :3], self._rest) + blended[:, :, 3]
         surface, bulge = self.geometric.surface(transforms, contraction)
         self._surface, self._surface_key = surface, self.pseudo.angles.tobytes() + contraction.tobytes()
-        return target + self.geometric.skin_displacement(bulge)
+        return self.creases.apply(target + self.geometric.skin_displacement(bulge), transforms)
 
     def step_frame(self, dt: float = 1 / 30) -> None:
         if not (dt > 0 and np.isfinite(dt)):
@@ -169,7 +175,7 @@ class HandRig:
         self._advance_skin(contraction, dt)
 
     def _advance_skin(self, contraction: np.ndarray, dt: float) -> None:
-        self._transforms = self.skeleton.bone_transforms(self.pseudo.angles)
+        self._transforms = self.contact.transforms(self.pseudo.angles)
         target = self.attachment_targets(self._transforms, contraction)
         anchor, mirror = self.hand.set_targets(target)
         self.frame_substeps = self.hand.integrator.advance(dt, anchor=anchor, mirror=mirror)
@@ -193,6 +199,24 @@ class HandRig:
         for _ in range(max(3, int(np.ceil(settle_time / dt)))):
             self._advance_skin(contraction, dt)
         return self.pose()
+
+    def geometric_twins(self) -> list[str]:
+        """The pseudo muscles whose contraction also bulges a geometric muscle (6.2.2, Fig. 6.15)."""
+        return [self.muscle_names[i] for i in self.geometric.pseudo]
+
+    def bulge_lift(self, angles: np.ndarray, settle_time: float = 2.5) -> tuple[np.ndarray, Pose, Pose]:
+        """What the geometric muscles add at the joint ``angles`` with the current contractions (Fig. 6.18): the
+        skin settled there with their bulge ("on") and with their twins at 0 ("off", the joints held, so
+        nothing else changes). Returns each node's outward lift (m, along the "off" skin's normal) and both
+        poses; the controls are left as they were."""
+        controls = dict(self.controls)
+        on = self.pose_joints(angles, settle_time)
+        self.set_controls({name: 0.0 for name in self.geometric_twins()})
+        off = self.pose_joints(angles, settle_time)
+        self.controls = controls
+        skin_on, skin_off = (p.positions["skin"].astype(np.float64) for p in (on, off))
+        lift = np.einsum("ij,ij->i", skin_on - skin_off, geometry.vertex_normals(skin_off, self.faces))
+        return lift, on, off
 
     # -- outputs ---------------------------------------------------------------------------------
     def _out(self, points: np.ndarray) -> np.ndarray:

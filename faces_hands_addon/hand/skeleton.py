@@ -99,6 +99,7 @@ class Skeleton:
         for b, p in enumerate(self.parent):
             depth[b] = 0 if p < 0 else depth[p] + 1
         self._levels = [np.flatnonzero(depth == d) for d in range(int(depth.max()) + 1)]
+        self._chained = [(level, self.parent[level]) for level in self._levels[1:]]
 
     # -- limits and names -------------------------------------------------------------------------
     @property
@@ -146,17 +147,12 @@ class Skeleton:
 
     def bone_transforms(self, angles: np.ndarray) -> np.ndarray:
         """(B, 4, 4) rest -> pose transforms of every bone (forward kinematics, one batch per depth)."""
-        rotation = self.local_rotations(np.asarray(angles, np.float64))
-        translation = self.position - np.einsum("bij,bj->bi", rotation, self.position)
         out = np.zeros((len(self.names), 4, 4))
+        out[:, :3, :3] = self.local_rotations(np.asarray(angles, np.float64))     # each joint about its centre
+        out[:, :3, 3] = self.position - np.einsum("bij,bj->bi", out[:, :3, :3], self.position)
         out[:, 3, 3] = 1.0
-        root = self._levels[0]
-        out[root, :3, :3] = rotation[root]
-        out[root, :3, 3] = translation[root]
-        for level in self._levels[1:]:
-            parent = out[self.parent[level], :3]
-            out[level, :3, :3] = parent[:, :, :3] @ rotation[level]
-            out[level, :3, 3] = np.einsum("bij,bj->bi", parent[:, :, :3], translation[level]) + parent[:, :, 3]
+        for level, parent in self._chained:
+            out[level] = out[parent] @ out[level]
         return out
 
     def clamp(self, angles: np.ndarray) -> np.ndarray:

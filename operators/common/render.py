@@ -22,13 +22,17 @@ def _bounds(objects) -> tuple[np.ndarray, np.ndarray]:
     return points.min(axis=0), points.max(axis=0)
 
 
-def setup_workbench(scene: bpy.types.Scene, size=(480, 480)) -> None:
+def setup_workbench(scene: bpy.types.Scene, size=(480, 480), matcap: str | None = None) -> None:
+    """Workbench at ``size`` pixels, studio light (or the built-in ``matcap``, e.g. "basic_grey.exr": its
+    shading follows the surface normal as seen from the camera, so small swellings read)."""
     scene.render.engine = "BLENDER_WORKBENCH"
     scene.render.resolution_x, scene.render.resolution_y = size
     scene.render.resolution_percentage = 100
     scene.render.image_settings.file_format = "PNG"
     shading = scene.display.shading
-    shading.light = "STUDIO"
+    shading.light = "MATCAP" if matcap else "STUDIO"
+    if matcap:
+        shading.studio_light = matcap
     shading.color_type = "VERTEX"   # painted colour attributes; objects without one show their material
     shading.show_specular_highlight = True
     scene.display_settings.display_device = "sRGB"
@@ -59,9 +63,9 @@ def frame_camera(scene: bpy.types.Scene, objects, azimuth_deg: float = 0.0, elev
 
 
 def render_objects(scene, objects, filepath: str | Path, size=(480, 480), azimuth_deg: float = 0.0,
-                   reframe: bool = True) -> Path:
+                   reframe: bool = True, matcap: str | None = None) -> Path:
     """Render ``objects`` with Workbench to a PNG; ``reframe=False`` keeps the current camera."""
-    setup_workbench(scene, size)
+    setup_workbench(scene, size, matcap)
     if reframe or scene.camera is None:
         frame_camera(scene, objects, azimuth_deg=azimuth_deg)
     scene.render.filepath = str(filepath)

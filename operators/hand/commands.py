@@ -91,6 +91,10 @@ class RenderHand:
         parser.add_argument("--columns", type=int, default=4)
         parser.add_argument("--bones", action="store_true", help="render the bones instead of the skin")
         parser.add_argument("--cell-size", default="240x300", help="pixels of one cell, WIDTHxHEIGHT (default 240x300)")
+        parser.add_argument("--frame", choices=("rest", "pose"), default="rest",
+                            help="rest: every cell framed on the hand at rest; pose: each cell on its own pose")
+        parser.add_argument("--shading", choices=("studio", "shape"), default="studio",
+                            help="studio light, or a matcap that shows surface shape (muscle bulges)")
         parser.add_argument("--out", required=True, help="output .png")
 
     @staticmethod
@@ -110,7 +114,8 @@ class RenderHand:
         cells = sheet.bulge_cells(rig) if args.sheet == "bulges" else sheet.pose_cells(rig, names)
         with atomic_output(out) as tmp:
             sheet.render_hand_sheet(bpy.context, obj, cells, tmp, args.view, args.columns, cell_size=cell_size,
-                                    progress=progress, show_bones=args.bones)
+                                    progress=progress, show_bones=args.bones, framing=args.frame,
+                                    matcap=sheet.SHAPE_MATCAP if args.shading == "shape" else None)
         print(written([out]))
         return 0
 

@@ -183,13 +183,13 @@ def pose_armature(arm, rig, transforms_by_bone: dict) -> None:
         pose_bone.location = (0.0, 0.0, 0.0)
 
 
-def push_hand_pose(obj, rig) -> None:
+def push_hand_pose(obj, rig, pose=None) -> None:
     """Live-preview hook: pose the armature and write the rest-space simulated skin (so skinning reproduces
-    the simulation) into the skin's simulation key."""
+    the simulation) into the skin's simulation key; ``pose``: one the rig returned earlier (default: now)."""
     arm = armature_of(obj)
     if arm is None:
         return
-    pose = rig.pose()
+    pose = rig.pose() if pose is None else pose
     pose_armature(arm, rig, pose.transforms)
     transforms = np.array([pose.transforms[n] for n in rig.skeleton.names])
     rest_space = unskinned(rig, pose.positions["skin"].astype(np.float64), transforms)

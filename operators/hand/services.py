@@ -180,21 +180,28 @@ def _key_quaternions(arm, keys: dict, frames) -> None:
 
 def run_demo(out_dir, progress, motion_name: str = "showcase") -> list:
     """The hand part of ``faces_hands demo``: the reference hand in every preset pose (palm and thumb-side
-    contact sheets), its geometric muscles bulging (Fig. 6.18), the showcase motion baked to a GLB, the rig as
-    .blend. Returns the written paths."""
+    contact sheets, each cell framed on its pose, a matcap that shows surface shape), its geometric muscles
+    bulging with the joints straight and in the grip poses, with and without the bulge (Fig. 6.18), the
+    showcase motion baked to a GLB, the rig as .blend. Returns the written paths."""
     def part(start, end):
         return lambda fraction, message="": progress(start + (end - start) * fraction, message)
 
     obj = build_hand_object(part(0.0, 0.05))
     rig = get_rig(obj, KIND)
     outputs = []
-    for name, cells, view, columns in (("hand_contact_sheet.png", sheet.pose_cells(rig), "palm", 4),
-                                       ("hand_contact_sheet_side.png", sheet.pose_cells(rig), "side", 4),
-                                       ("hand_bulges.png", sheet.bulge_cells(rig), "palm", 6)):
+    for name, cells, view, columns, framing in (
+            ("hand_contact_sheet.png", sheet.pose_cells(rig), "palm", 4, "pose"),
+            ("hand_contact_sheet_side.png", sheet.pose_cells(rig), "side", 4, "pose"),
+            ("hand_bulges.png", sheet.bulge_cells(rig), "palm", 6, "rest")):
         path = out_dir / name
         with atomic_output(path) as tmp:
-            sheet.render_hand_sheet(bpy.context, obj, cells, tmp, view, columns, progress=part(0.05, 0.6))
+            sheet.render_hand_sheet(bpy.context, obj, cells, tmp, view, columns, (360, 450), part(0.05, 0.45),
+                                    framing=framing, matcap=sheet.SHAPE_MATCAP)
         outputs.append(path)
+    path = out_dir / "hand_grip_bulges.png"
+    with atomic_output(path) as tmp:
+        sheet.render_grip_sheet(bpy.context, obj, tmp, progress=part(0.45, 0.6))
+    outputs.append(path)
     bpy.context.scene.render.fps = 30
     animate(bpy.context, obj, motion_name)
     print(bake(bpy.context, obj, part(0.6, 0.95)))

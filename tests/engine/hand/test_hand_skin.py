@@ -133,3 +133,27 @@ def test_grip_poses_swell_their_geometric_muscles(rig, pose, least_mm):
     lift = np.linalg.norm(rig.geometric.skin_displacement(bulge - relaxed), axis=1) * 1000
     assert lift.max() >= least_mm
     assert (lift > 0.5).sum() >= 10
+
+
+EMINENCES = {"hypothenar": ("opponens_digiti_minimi", "flexor_digiti_minimi_brevis", "abductor_digiti_minimi"),
+             "first web": ("first_dorsal_interosseus",)}
+
+
+@pytest.mark.parametrize("pose, region, least_mm", [
+    ("fist", "hypothenar", 5.0), ("point", "hypothenar", 5.0), ("thumbs_up", "hypothenar", 5.0),
+    ("pinch", "first web", 4.0), ("spread", "hypothenar", 2.5), ("spread", "first web", 2.0),
+])
+def test_grip_poses_lift_the_skin_over_their_eminences(rig, pose, region, least_mm):
+    """The contact sheet's grip poses swell the simulated skin itself: each pose simulated from rest, then the
+    skin settled at the joint angles it reached with and without its geometric muscles' bulge (Fig. 6.18,
+    ``HandRig.bulge_lift``), over the nodes whose heaviest muscle footprint is one of the region's muscles.
+    With the poses before the co-contractions of scripts/hand_pose_presets.py (GRIP): hypothenar 2.7 mm and 5
+    nodes over 1 mm in fist, point and thumbs up, the first web 0.5 mm in the pinch, spread 1.7 and 0.5 mm."""
+    rig.reset()
+    rig.settled({"ctrl": motion.pose_contractions(pose, rig.muscle_names)}, 3.0)
+    lift, _, _ = rig.bulge_lift(rig.joint_angles)
+    rig.reset()
+    geo = rig.geometric
+    nodes = np.isin(geo.footprint_owner(), [geo.names.index(name) for name in EMINENCES[region]])
+    assert lift[nodes].max() * 1000 >= least_mm
+    assert (lift[nodes] > 0.001).sum() >= 10                           # a swelling, not one raised node
