@@ -11,7 +11,7 @@ from scipy.spatial import cKDTree
 from .errors import UserError
 
 __all__ = ["unique_edges", "edge_length_graph", "face_normals", "triangle_normals", "vertex_normals", "vertex_areas",
-           "boundary_edge_flags", "closest_points_on_triangles", "closest_points", "mirror_map",
+           "boundary_edge_flags", "closest_points_on_triangles", "closest_points", "centroid_tree", "mirror_map",
            "winding_number", "checked_mesh", "MAX_VERTICES", "MAX_TRIANGLES", "similarity_transform"]
 
 MAX_VERTICES = 5_000_000
@@ -128,18 +128,25 @@ def closest_points_on_triangles(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: 
     return point, bary
 
 
-def closest_points(vertices: np.ndarray, faces: np.ndarray, points: np.ndarray, candidates: int = 12):
+def centroid_tree(vertices: np.ndarray, faces: np.ndarray) -> cKDTree:
+    """The KD-tree on triangle centroids :func:`closest_points` searches; build it once for a mesh that is
+    queried again and again (a bone the skin guard re-anchors on every frame) and pass it as ``tree``."""
+    return cKDTree(np.asarray(vertices, np.float64)[np.asarray(faces, np.int64)].mean(axis=1))
+
+
+def closest_points(vertices: np.ndarray, faces: np.ndarray, points: np.ndarray, candidates: int = 12,
+                   tree: cKDTree | None = None):
     """Closest points on a triangle mesh: ``(point (M,3), face index (M,), barycentric (M,3), distance)``.
 
     Candidate triangles come from a KD-tree on triangle centroids (exact for meshes whose triangles are
-    small relative to the query distance; ``candidates`` widens the search). For uneven meshes and
-    repeated queries use ``fitting.surface.TargetSurface``."""
+    small relative to the query distance; ``candidates`` widens the search); ``tree``: that tree
+    (:func:`centroid_tree`) when the caller keeps it, the same answer without rebuilding it. For uneven
+    meshes and repeated queries use ``fitting.surface.TargetSurface``."""
     vertices = np.asarray(vertices, np.float64)
     faces = np.asarray(faces, np.int64)
     points = np.asarray(points, np.float64)
-    centroids = vertices[faces].mean(axis=1)
     k = min(candidates, len(faces))
-    _, cand = cKDTree(centroids).query(points, k=k)
+    _, cand = (centroid_tree(vertices, faces) if tree is None else tree).query(points, k=k)
     cand = cand.reshape(len(points), k)
     best_d = np.full(len(points), np.inf)
     best_p = np.zeros_like(points)

@@ -98,10 +98,14 @@ class BoneSurface:
     def __init__(self, vertices: np.ndarray, faces: np.ndarray) -> None:
         self.vertices, self.faces = vertices, faces
         self.normals = geometry.vertex_normals(vertices, faces)
+        self._tree = None
 
     def closest(self, points: np.ndarray):
-        """Closest points (K, 3), unit normals there (K, 3) and distances (K,)."""
-        point, face, bary, dist = geometry.closest_points(self.vertices, self.faces, points)
+        """Closest points (K, 3), unit normals there (K, 3) and distances (K,). The centroid tree is built
+        on the first query and kept (the skin guard asks every frame)."""
+        if self._tree is None:
+            self._tree = geometry.centroid_tree(self.vertices, self.faces)
+        point, face, bary, dist = geometry.closest_points(self.vertices, self.faces, points, tree=self._tree)
         normal = np.einsum("ij,ijk->ik", bary, self.normals[self.faces[face]])
         return point, normal / np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-12), dist
 

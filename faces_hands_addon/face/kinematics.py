@@ -173,37 +173,46 @@ class LidRig:
         order = np.argsort(margin[:, 0], kind="stable")
         return margin[order, 0], _elevation(margin[order], self.centre)
 
-    def rotations(self, close: float, pitch: float, lift: float = 0.0) -> np.ndarray:
-        """Rotation angle (radians, + = up) of every node for lid closure ``close``, gaze ``pitch`` and
-        upper-lid raise ``lift`` (levator palpebrae superioris, FACS AU5: :data:`RAISE` at 1)."""
+    def rotations(self, close: float, pitch: float, lift: float = 0.0, nodes: np.ndarray | None = None) -> np.ndarray:
+        """Rotation angle (radians, + = up) of every node (or of ``nodes`` only) for lid closure ``close``,
+        gaze ``pitch`` and upper-lid raise ``lift`` (levator palpebrae superioris, FACS AU5: :data:`RAISE`
+        at 1)."""
+        pick = slice(None) if nodes is None else nodes
+        theta_u, theta_l = self.theta_u[pick], self.theta_l[pick]
         close = float(np.clip(close, 0.0, 1.0))
         gaze = np.radians(EYE_PITCH_DEG) * float(np.clip(pitch, -1.0, 1.0))
-        upper = self.theta_u + self.FOLLOW_UPPER * gaze + self.RAISE * float(np.clip(lift, 0.0, 1.0))
-        lower = self.theta_l + self.FOLLOW_LOWER * gaze
+        upper = theta_u + self.FOLLOW_UPPER * gaze + self.RAISE * float(np.clip(lift, 0.0, 1.0))
+        lower = theta_l + self.FOLLOW_LOWER * gaze
         aperture = np.maximum(upper - lower, 0.0)
         meeting = lower + self.MEETING * aperture
         upper_final = upper + close * (meeting - 0.03 - upper)     # a little overlap: closed means closed
         lower_final = lower + close * (meeting - lower)
-        delta = np.where(self.is_upper, upper_final - self.theta_u, lower_final - self.theta_l)
-        return self.weight * delta
+        delta = np.where(self.is_upper[pick], upper_final - theta_u, lower_final - theta_l)
+        return self.weight[pick] * delta
 
     def rotate(self, rest: np.ndarray, close: float, pitch: float, lift: float = 0.0) -> np.ndarray:
         """Rest positions of all nodes (N,3) rotated by :meth:`rotations` about the eye's X axis."""
+        out = rest.copy()
+        out[self.index] = self.rotate_lid(rest[self.index], close, pitch, lift)
+        return out
+
+    def rotate_lid(self, lid_rest: np.ndarray, close: float, pitch: float, lift: float = 0.0) -> np.ndarray:
+        """:meth:`rotate` for the lid's own nodes only: their rest positions (len(index), 3) in, rotated out
+        (what a frame needs; the other nodes do not move)."""
         index = self.index
-        angle = self.rotations(close, pitch, lift)[index]
-        d = rest[index] - self.centre
+        angle = self.rotations(close, pitch, lift, index)
+        d = lid_rest - self.centre
         c, s = np.cos(angle), np.sin(angle)
         # elevation +a about X with forward = -Y: (y, z) -> (y cos a + z sin a, z cos a - y sin a)
-        out = rest.copy()
-        out[index, 1] = self.centre[1] + d[:, 1] * c + d[:, 2] * s
-        out[index, 2] = self.centre[2] + d[:, 2] * c - d[:, 1] * s
+        out = lid_rest.copy()
+        out[:, 1] = self.centre[1] + d[:, 1] * c + d[:, 2] * s
+        out[:, 2] = self.centre[2] + d[:, 2] * c - d[:, 1] * s
         # a lid sliding down over the cornea must stay outside the eyeball: lift moving surface nodes that
         # the canonical (flat) lid puts inside the sphere, in proportion to how far they have turned
-        moved = out[index] - self.centre
+        moved = out - self.centre
         radius = np.linalg.norm(moved, axis=1)
         lift = np.clip(np.abs(angle) / 0.06, 0.0, 1.0) * self.surface[index]
         ahead = np.degrees(np.arccos(np.clip(-moved[:, 1] / np.maximum(radius, 1e-12), -1.0, 1.0)))
         clear = self.clear_radius + self.eyeball_radius * cornea_bulge(ahead)    # over the cornea too
         new_radius = radius + lift * np.maximum(clear - radius, 0.0)
-        out[index] = self.centre + moved * (new_radius / np.maximum(radius, 1e-12))[:, None]
-        return out
+        return self.centre + moved * (new_radius / np.maximum(radius, 1e-12))[:, None]

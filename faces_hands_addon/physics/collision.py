@@ -49,6 +49,7 @@ class BoneHalfSpaceGuard:
         self.normal = self.local_normal.copy()
         self._depth = np.empty(self.nodes.shape[0])
         self._transforms: list[np.ndarray] = []
+        self._posed = False              # point/normal are local_point/local_normal posed by _transforms
         self._surfaces = None
         self._own = None
         self._initial = (self.local_point.copy(), self.local_normal.copy(), self.bone.copy())
@@ -74,6 +75,7 @@ class BoneHalfSpaceGuard:
         self.local_point[...], self.local_normal[...], self.bone[...] = (a.copy() for a in self._initial)
         if self._surfaces is not None and self._rest is not None:
             self._last = self._rest.copy()
+        self._posed = False
         self.set_bone_transforms([np.eye(4) for _ in (self._transforms or [None])])
         self._start = None
 
@@ -84,13 +86,22 @@ class BoneHalfSpaceGuard:
         self._start = (self.point.copy(), self.normal.copy())
 
     def set_bone_transforms(self, transforms: list[np.ndarray] | np.ndarray) -> None:
-        """Pose the guard planes with their bones (``transforms[b]`` is bone b's 4x4 matrix)."""
-        self._transforms = [np.asarray(m, np.float64) for m in transforms]
-        self._pose(np.arange(len(self.nodes)))
+        """Pose the guard planes with their bones (``transforms[b]`` is bone b's 4x4 matrix). The same
+        matrices as last time leave the posed planes as they are (every change of a local plane re-poses
+        it at once, :meth:`_pose`)."""
+        transforms = [np.array(m, np.float64) for m in transforms]
+        if self._posed and len(transforms) == len(self._transforms) and all(
+                np.array_equal(new, old) for new, old in zip(transforms, self._transforms)):
+            return
+        self._transforms = transforms
+        self._pose(None)
 
-    def _pose(self, which: np.ndarray) -> None:
+    def _pose(self, which: np.ndarray | None) -> None:
+        """Pose the planes of the guarded nodes ``which`` (all for ``None``) with their bones."""
+        self._posed = True
         for index, matrix in enumerate(self._transforms):
-            mask = which[self.bone[which] == index]
+            mask = (np.flatnonzero(self.bone == index) if which is None
+                    else which[self.bone[which] == index])
             if len(mask):
                 self.point[:, mask] = matrix[:3, :3] @ self.local_point[:, mask] + matrix[:3, 3:4]
                 self.normal[:, mask] = matrix[:3, :3] @ self.local_normal[:, mask]
@@ -129,7 +140,7 @@ class BoneHalfSpaceGuard:
         self.bone[...] = state["bone"]
         if "last" in state and getattr(self, "_last", None) is not None:
             self._last[...] = state["last"]
-        self._pose(np.arange(len(self.nodes)))
+        self._pose(None)
 
     def snapshot(self) -> None:
         """Make the current planes the ones :meth:`reset` returns to."""
