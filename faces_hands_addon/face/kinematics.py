@@ -160,7 +160,11 @@ class LidRig:
         theta_l = np.interp(x, self._lx, self._le)
         elevation = _elevation(nodes, self.centre)
         near = np.linalg.norm(nodes - self.centre, axis=1) < radius
-        is_upper = elevation > 0.5 * (theta_u + theta_l)
+        # a node on a canthus, where both margins meet, belongs to the lower lid (it stays when the lid
+        # closes): an exact tie must not be decided by the last bit of the elementwise trigonometry, which
+        # numpy's vectorised loops compute differently for an element that falls in a scalar head or tail
+        # (where depends on the array's address: the 10k head's corner node changed lid from run to run)
+        is_upper = elevation > 0.5 * (theta_u + theta_l) + 1e-9
         d_up = np.min(np.linalg.norm(nodes[:, None] - up[None], axis=2), axis=1)
         d_low = np.min(np.linalg.norm(nodes[:, None] - low[None], axis=2), axis=1)
         distance = np.where(is_upper, d_up, d_low)
