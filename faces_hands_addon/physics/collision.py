@@ -10,11 +10,13 @@ loop (:mod:`.kernel`, when numba is importable).
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from . import kernel
 
-__all__ = ["BoneHalfSpaceGuard", "SphereGuard"]
+__all__ = ["BoneHalfSpaceGuard", "SphereGuard", "CapBulge"]
 
 
 def _compiled_guards(backend: str):
@@ -267,11 +269,30 @@ class BoneHalfSpaceGuard:
         velocity[:, nodes] = v - normal * inward
 
 
+@dataclass(frozen=True)
+class CapBulge:
+    """More radius for a :class:`SphereGuard` over a cap looking along -Y (the cornea over the iris, 3.1.2
+    "Eyes"): ``scale * peak * cos(angle * 90 / cap_deg)^2`` at ``angle`` degrees from -Y inside the cap, 0
+    beyond, plus a per-node ``sag`` (m; (K,) or a number). A plain description rather than a function, so
+    the guard's compiled loop (:mod:`.kernel`) can evaluate it too."""
+    scale: float
+    peak: float
+    cap_deg: float
+    sag: np.ndarray | float = 0.0
+
+    def __call__(self, unit: np.ndarray) -> np.ndarray:
+        """Extra radius (m) in the unit directions (3, K) from the centre."""
+        angle = np.degrees(np.arccos(np.clip(-unit[1], -1.0, 1.0)))
+        return self.scale * np.where(angle < self.cap_deg,
+                                     self.peak * np.cos(np.radians(angle) * 90 / self.cap_deg) ** 2, 0.0) + self.sag
+
+
 class SphereGuard:
     """Keeps ``nodes`` at least ``radius`` from ``centre`` (lids over the eyeball, 3.1.2 "Eyes").
 
     ``extra(unit)`` (optional): more radius (m) in the unit directions (3, K) from the centre, e.g. the
-    cornea's bulge; with ``rest`` (3, K) node positions a node that lies inside at rest is let off by what
+    cornea's bulge (a :class:`CapBulge`, which the compiled loop handles too; any other callable runs the
+    numpy path); with ``rest`` (3, K) node positions a node that lies inside at rest is let off by what
     it lacks there, less and less as it moves away from rest (fully guarded ``fade`` m away), so the guard
     never pushes a node at rest yet a lid that closes over the cornea stays on it."""
 
@@ -284,6 +305,7 @@ class SphereGuard:
         self.fade = float(fade)
         self.slack = np.zeros(len(self.nodes))
         self.rest = None
+        self._sag = None
         if rest is not None and len(self.nodes):
             self.rest = np.asarray(rest, np.float64)
             d = self.rest - self.centre
@@ -295,9 +317,17 @@ class SphereGuard:
     backend = "auto"
 
     def __call__(self, positions: np.ndarray, velocity: np.ndarray, fraction: float = 1.0) -> None:
-        compiled = _compiled_guards(self.backend) if self.extra is None and self.rest is None else None
-        if compiled is not None and positions.flags.c_contiguous:    # the compiled loop: a plain sphere only
-            compiled[1](positions, self.nodes, self.centre[:, 0], self.radius)
+        plain = self.extra is None or isinstance(self.extra, CapBulge)
+        compiled = _compiled_guards(self.backend) if plain else None
+        if compiled is not None and positions.flags.c_contiguous:
+            bulge = self.extra if self.extra is not None else CapBulge(0.0, 0.0, 0.0)
+            if self._sag is None or self._sag[0] is not bulge:
+                self._sag = (bulge, np.ascontiguousarray(np.broadcast_to(np.asarray(bulge.sag, np.float64),
+                                                                         self.nodes.shape)))
+            rest = self.rest if self.rest is not None else np.zeros((3, 0))
+            compiled[1](positions, self.nodes, self.centre[:, 0], self.radius, self.extra is not None,
+                        float(bulge.scale), float(bulge.peak), float(bulge.cap_deg), self._sag[1],
+                        self.rest is not None, rest, self.slack, self.fade)
             return
         x = positions[:, self.nodes]
         d = x - self.centre

@@ -163,8 +163,11 @@ def _half_space(x, v, nodes, point, normal, start_point, start_normal, interpola
                 v[2, k] -= nz * inward
 
 
-def _sphere(x, nodes, centre, radius):  # pragma: no cover - compiled
-    """:class:`~.collision.SphereGuard` ``__call__``: nodes pushed out to ``radius`` from ``centre``."""
+def _sphere(x, nodes, centre, radius, bulge, scale, peak, cap_deg, sag, slacken, rest, slack,
+            fade):  # pragma: no cover - compiled
+    """:class:`~.collision.SphereGuard` ``__call__``: nodes pushed out to ``radius`` from ``centre``, plus
+    the :class:`~.collision.CapBulge` (``scale``, ``peak``, ``cap_deg``, ``sag``) when ``bulge``, less
+    the ``slack`` of nodes near their ``rest`` place when ``slacken`` (the numpy path's arithmetic)."""
     for j in range(nodes.shape[0]):
         k = nodes[j]
         dx = x[0, k] - centre[0]
@@ -173,11 +176,25 @@ def _sphere(x, nodes, centre, radius):  # pragma: no cover - compiled
         dist = math.sqrt(dx * dx + dy * dy + dz * dz)
         if dist < 1e-12:
             dist = 1e-12
-        scale = radius / dist
-        if scale > 1.0:
-            x[0, k] = centre[0] + dx * scale
-            x[1, k] = centre[1] + dy * scale
-            x[2, k] = centre[2] + dz * scale
+        wanted = radius
+        if bulge:
+            ahead = -(dy / dist)
+            ahead = -1.0 if ahead < -1.0 else (1.0 if ahead > 1.0 else ahead)
+            angle = math.degrees(math.acos(ahead))
+            cap = peak * math.cos(math.radians(angle) * 90 / cap_deg) ** 2 if angle < cap_deg else 0.0
+            wanted = wanted + (scale * cap + sag[j])
+        if slacken:
+            mx = x[0, k] - rest[0, j]
+            my = x[1, k] - rest[1, j]
+            mz = x[2, k] - rest[2, j]
+            near = 1.0 - math.sqrt(mx * mx + my * my + mz * mz) / fade
+            near = 0.0 if near < 0.0 else (1.0 if near > 1.0 else near)
+            wanted = wanted - slack[j] * near
+        factor = wanted / dist
+        if factor > 1.0:
+            x[0, k] = centre[0] + dx * factor
+            x[1, k] = centre[1] + dy * factor
+            x[2, k] = centre[2] + dz * factor
 
 
 def expect_frames(frames: int) -> None:
@@ -258,4 +275,5 @@ def _warm_up(compiled) -> None:
     half_space, sphere = _STATE["half_space"], _STATE["sphere"]
     half_space(f3.copy(), f3.copy(), index, f3[:, :1].copy(), f3[:, :1] + 1.0, f3[:, :1].copy(),
                f3[:, :1] + 1.0, True, 0.5, one[:1])
-    sphere(f3.copy(), index, np.zeros(3), 0.01)
+    sphere(f3.copy(), index, np.zeros(3), 0.01, True, 0.01, 0.03, 30.0, one[:1], True, f3[:, :1].copy(), one[:1],
+           0.001)

@@ -101,7 +101,7 @@ def test_compiled_code_is_cached_in_the_given_folder_only(tmp_path):
 
 @pytest.mark.parametrize("fraction", [0.25, 1.0])
 def test_compiled_guards_match_numpy(fraction):
-    from faces_hands_addon.physics import BoneHalfSpaceGuard, SphereGuard
+    from faces_hands_addon.physics import BoneHalfSpaceGuard, CapBulge, SphereGuard
     rng = np.random.default_rng(7)
     nodes = np.sort(rng.choice(400, 150, replace=False))
     point, normal = rng.normal(size=(3, 150)) * 0.01, rng.normal(size=(3, 150))
@@ -119,6 +119,16 @@ def test_compiled_guards_match_numpy(fraction):
         eye = SphereGuard(nodes[::2], [0.001, 0.0, -0.002], 0.008)
         eye.backend = backend
         eye(x, v, fraction)
+        # the lid guard as the face uses it: cornea bulge with per-node sag, let off near the rest place
+        sag = np.linspace(0.0, 0.0004, len(nodes[1::2]))
+        rest = x[:, nodes[1::2]] + np.random.default_rng(5).normal(size=(3, len(nodes[1::2]))) * 0.0005
+        lid = SphereGuard(nodes[1::2], [0.0, 0.004, 0.0], 0.009, extra=CapBulge(0.009, 0.035, 32.0, sag),
+                          rest=rest, fade=0.0015)
+        lid.backend = backend
+        before = x[:, lid.nodes].copy()
+        lid(x, v, fraction)
+        pushed = np.sqrt(np.einsum("ij,ij->j", x[:, lid.nodes] - before, x[:, lid.nodes] - before)) > 1e-6
+        assert 5 < pushed.sum() < len(lid.nodes)                  # the lid guard acted on some nodes, not all
         outcome.append((x, v))
     assert np.abs(outcome[0][0] - outcome[1][0]).max() < TOLERANCE_M
     assert np.abs(outcome[0][1] - outcome[1][1]).max() < 1e-9
