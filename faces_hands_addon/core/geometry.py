@@ -16,6 +16,7 @@ __all__ = ["unique_edges", "edge_length_graph", "face_normals", "triangle_normal
 
 MAX_VERTICES = 5_000_000
 MAX_TRIANGLES = 10_000_000
+_CLOSEST_ROWS = 65536      # point x candidate pairs :func:`closest_points` evaluates in one pass
 
 
 def unique_edges(faces: np.ndarray, return_counts: bool = False):
@@ -148,20 +149,24 @@ def closest_points(vertices: np.ndarray, faces: np.ndarray, points: np.ndarray, 
     k = min(candidates, len(faces))
     _, cand = (centroid_tree(vertices, faces) if tree is None else tree).query(points, k=k)
     cand = cand.reshape(len(points), k)
-    best_d = np.full(len(points), np.inf)
-    best_p = np.zeros_like(points)
-    best_f = np.zeros(len(points), np.int64)
-    best_b = np.zeros((len(points), 3))
-    for j in range(k):
-        f = cand[:, j]
+    best_p, best_b = np.zeros_like(points), np.zeros((len(points), 3))
+    best_f, best_d = np.zeros(len(points), np.int64), np.full(len(points), np.inf)
+    chunk = max(1, _CLOSEST_ROWS // k)
+    for begin in range(0, len(points), chunk):     # every candidate of a chunk of points in one pass
+        rows = slice(begin, begin + chunk)
+        f = cand[rows].ravel()
+        p = np.repeat(points[rows], k, axis=0)
         tri = vertices[faces[f]]
-        p, b = closest_points_on_triangles(points, tri[:, 0], tri[:, 1], tri[:, 2])
-        d = np.linalg.norm(p - points, axis=1)
-        better = d < best_d
-        best_d[better] = d[better]
-        best_p[better] = p[better]
-        best_f[better] = f[better]
-        best_b[better] = b[better]
+        q, b = closest_points_on_triangles(p, tri[:, 0], tri[:, 1], tri[:, 2])
+        d = np.linalg.norm(q - p, axis=1)
+        d = np.where(d < np.inf, d, np.inf).reshape(-1, k)          # NaN never wins
+        pick = np.argmin(d, axis=1)                                  # the first of equals, as a j loop
+        at = np.arange(len(pick)) * k + pick
+        found = d[np.arange(len(pick)), pick] < np.inf
+        best_d[rows] = np.where(found, d.ravel()[at], np.inf)
+        best_p[rows] = np.where(found[:, None], q[at], 0.0)
+        best_f[rows] = np.where(found, f[at], 0)
+        best_b[rows] = np.where(found[:, None], b[at], 0.0)
     return best_p, best_f, best_b, best_d
 
 
