@@ -38,11 +38,13 @@ from scipy.optimize import lsq_linear, nnls
 from threadpoolctl import ThreadpoolController
 
 from ..core.errors import UserError
+from ..physics import kernel
 
 __all__ = ["TargetBasis", "WeightFit", "WeightSolver", "fit_weights", "stack_pose", "bounded_nnls"]
 
 REGULARISATION = 1e-9      # relative to the Gram matrix's mean diagonal: equal targets share weight evenly
 PRIOR_STRENGTH = 0.3       # lambda: measured on speech, residual median +0.1 mm, L1 distance to the prior / 4
+BOX_ROUNDS = 30            # active-set rounds of the compiled solver before a frame falls back to bounded_nnls
 _THREADS: list[ThreadpoolController] = []
 
 
@@ -113,6 +115,63 @@ def bounded_nnls(matrix: np.ndarray, rhs: np.ndarray, upper: float = 1.0, rounds
     return np.clip(weights, 0.0, upper)
 
 
+def _box_block(matrix, rhs, hessian, normal, low, high, rounds, weights, solved):  # pragma: no cover - compiled
+    """``min ||A w - b||, 0 <= w <= 1`` for every row ``b`` of ``rhs`` (F, m) by primal-dual active sets
+    (Hintermueller, Ito & Kunisch 2002): the free weights solve the least-squares problem of their columns,
+    a free weight beyond a bound is fixed there, a fixed one whose gradient points inside is freed, until
+    the sets repeat -- then the KKT conditions of :func:`_optimal` hold. The free problem is solved from the
+    normal equations (``hessian`` = A^T A) when ``normal`` (the prior term bounds their condition by
+    T / lambda + 1), else by Householder QR of the free columns (the correctives' Gram matrix alone has
+    condition ~4e10, too much to square). Each frame starts from the previous frame's sets (``low``/
+    ``high``, updated): ~3 solves a frame. ``solved[f]`` is False where ``rounds`` were not enough or a
+    free set was rank deficient (the caller solves that frame another way)."""
+    m, n = matrix.shape
+    for f in range(rhs.shape[0]):
+        b = rhs[f]
+        target = matrix.T @ b
+        tolerance = 1e-9 * max(1.0, np.abs(target).max())
+        at0, at1 = low.copy(), high.copy()
+        w = np.zeros(n)
+        solved[f] = False
+        for _ in range(rounds):
+            fixed = at0 | at1
+            free = np.flatnonzero(~fixed)
+            w[:] = 0.0
+            w[at1] = 1.0
+            if len(free) and normal:
+                system = np.empty((len(free), len(free)))
+                right = np.empty(len(free))
+                for j in range(len(free)):
+                    right[j] = target[free[j]] - np.sum(hessian[free[j]][at1])
+                    for k in range(len(free)):
+                        system[j, k] = hessian[free[j], free[k]]
+                w[free] = np.linalg.solve(system, right)
+            elif len(free):                         # Householder QR of the free columns, back substitution
+                columns = np.empty((m, len(free)))
+                for j in range(len(free)):
+                    columns[:, j] = matrix[:, free[j]]
+                q, upper = np.linalg.qr(columns)
+                y = np.ascontiguousarray(q.T) @ (b - matrix[:, at1].sum(axis=1))
+                for j in range(len(free) - 1, -1, -1):
+                    total = y[j]
+                    for k in range(j + 1, len(free)):
+                        total -= upper[j, k] * w[free[k]]
+                    w[free[j]] = total / upper[j, j] if upper[j, j] != 0.0 else np.nan
+            if not np.all(np.isfinite(w)):
+                break
+            gradient = hessian @ w - target
+            new0 = (~fixed & (w < 0.0)) | (at0 & (gradient >= -tolerance))
+            new1 = (~fixed & (w > 1.0)) | (at1 & (gradient <= tolerance))
+            if np.array_equal(new0, at0) and np.array_equal(new1, at1):
+                solved[f] = True
+                break
+            at0, at1 = new0, new1
+        if solved[f]:
+            weights[f] = np.minimum(np.maximum(w, 0.0), 1.0)
+            low[:] = at0
+            high[:] = at1
+
+
 def _optimal(matrix: np.ndarray, rhs: np.ndarray, weights: np.ndarray, upper: float) -> bool:
     """KKT conditions of the bounded problem: zero gradient where a weight is free, pointing outwards
     where it sits on a bound (relative tolerance)."""
@@ -135,20 +194,46 @@ class _Stage:
             raise UserError("the baked targets do not move anything; bake expressions on the rig first")
         self.lower = np.tril(cho_factor(gram + REGULARISATION * scale * np.eye(len(gram)), lower=True)[0])
         self.scale = scale
+        self._sets = (np.ones(len(gram), bool), np.zeros(len(gram), bool))    # warm start: all at 0
 
-    def solve_many(self, flat: np.ndarray, prior: np.ndarray | None = None, strength: float = 0.0) -> np.ndarray:
-        """Weights (F, T) of the rows of ``flat`` (F, 3V), held near ``prior`` (F, T) with ``strength``."""
+    def solve_many(self, flat: np.ndarray | None, prior: np.ndarray | None = None, strength: float = 0.0,
+                   skip: np.ndarray | None = None, projected: np.ndarray | None = None) -> np.ndarray:
+        """Weights (F, T) of the rows of ``flat`` (F, 3V), held near ``prior`` (F, T) with ``strength``;
+        rows where ``skip`` is set are not solved (zeros: the caller overwrites them). ``projected``: the
+        product ``columns^T flat^T`` (T, F) when the caller has it (``flat`` is then not needed)."""
         count = self.columns.shape[1]
-        if not len(flat):
+        if projected is None:
+            projected = self.columns.T @ flat.T
+        frames = projected.shape[1]
+        if not frames:
             return np.zeros((0, count))
-        rhs = solve_triangular(self.lower, self.columns.T @ flat.T, lower=True)       # (T, F)
-        with _one_blas_thread():
-            if prior is None or strength <= 0:
-                return np.stack([bounded_nnls(self.lower.T, rhs[:, f]) for f in range(len(flat))])
+        rows = np.arange(frames) if skip is None else np.flatnonzero(~np.asarray(skip, bool))
+        rhs = solve_triangular(self.lower, projected[:, rows], lower=True)       # (T, F)
+        matrix = self.lower.T
+        if prior is not None and strength > 0:
             root = np.sqrt(strength * self.scale)
-            matrix = np.vstack([self.lower.T, root * np.eye(count)])
-            return np.stack([bounded_nnls(matrix, np.concatenate([rhs[:, f], root * prior[f]]))
-                             for f in range(len(flat))])
+            matrix = np.vstack([matrix, root * np.eye(count)])
+            rhs = np.vstack([rhs, root * prior[rows].T])
+        out = np.zeros((frames, count))
+        with _one_blas_thread():
+            out[rows] = self._solve_rows(np.ascontiguousarray(matrix), np.ascontiguousarray(rhs.T))
+        return out
+
+    def _solve_rows(self, matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+        """Bounded least squares for every row of ``rhs``: the compiled active-set loop (:func:`_box_block`,
+        warm-started frame to frame) where numba is loaded, :func:`bounded_nnls` for the frames it leaves
+        and everywhere without numba (the reference)."""
+        solve = kernel.compiled(_box_block) if kernel.loaded() else None
+        weights = np.zeros((len(rhs), matrix.shape[1]))
+        solved = np.zeros(len(rhs), bool)
+        if solve is not None:
+            low, high = self._sets
+            normal = matrix.shape[0] > matrix.shape[1]                    # the prior rows are stacked below
+            solve(matrix, rhs, np.ascontiguousarray(matrix.T @ matrix), normal, low, high, BOX_ROUNDS, weights,
+                  solved)
+        for f in np.flatnonzero(~solved):
+            weights[f] = bounded_nnls(matrix, rhs[f])
+        return weights
 
 
 class WeightSolver:
@@ -167,6 +252,9 @@ class WeightSolver:
         self.prior_strength = prior_strength
         self.vertex_count = basis.vertex_count
         self.columns = np.hstack([stage.columns for stage in self.stages])
+        # what the correctives see of the primary weights (C2^T C1): their right-hand sides without the
+        # full-size residual of the first stage
+        self._cross = self.stages[1].columns.T @ self.stages[0].columns if correctives is not None else None
 
     def solve_many(self, displacements: np.ndarray, prior: np.ndarray | None = None,
                    exact: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -180,18 +268,24 @@ class WeightSolver:
             raise UserError("the poses do not match the baked targets; bake them again")
         if prior is not None and np.shape(prior) != (len(displacements), self.primary):
             raise UserError("the prior weights do not match the frames and targets")
-        left = displacements.reshape(len(displacements), -1)
-        found = []
-        for index, stage in enumerate(self.stages):
-            weights = stage.solve_many(left, prior if index == 0 else None, self.prior_strength)
-            if exact is not None and prior is not None:
-                rows = np.asarray(exact, bool)
-                weights[rows] = np.clip(prior[rows], 0.0, 1.0) if index == 0 else 0.0
-            left = left - weights @ stage.columns.T
-            found.append(weights)
-        error = left.reshape(len(left), -1, 3)
-        residual = np.sqrt(np.einsum("fij,fij->fi", error, error).max(axis=1)) if error.size else np.zeros(len(left))
-        return np.hstack(found), residual
+        flat = displacements.reshape(len(displacements), -1)
+        projected = self.columns.T @ flat.T                          # (T, F): every stage's, in one product
+        rows = np.asarray(exact, bool) if exact is not None and prior is not None else None
+        first = self.stages[0].columns.shape[1]
+        weights = self.stages[0].solve_many(None, prior, self.prior_strength, rows, projected[:first])
+        if rows is not None:
+            weights[rows] = np.clip(prior[rows], 0.0, 1.0)
+        found = [weights]
+        if len(self.stages) > 1:                # the correctives fit what the targets left over
+            left = projected[first:] - self._cross @ weights.T
+            correctives = self.stages[1].solve_many(None, skip=rows, projected=left)
+            if rows is not None:
+                correctives[rows] = 0.0
+            found.append(correctives)
+        weights = np.hstack(found)
+        error = (flat - weights @ self.columns.T).reshape(len(flat), -1, 3)
+        residual = np.sqrt(np.einsum("fij,fij->fi", error, error).max(axis=1)) if error.size else np.zeros(len(flat))
+        return weights, residual
 
     def solve(self, displacement: np.ndarray) -> tuple[np.ndarray, float]:
         """Weights (T,) of one frame's displacement (V, 3) and the largest vertex error (m)."""

@@ -6,6 +6,7 @@ coordinates or, for the lids (which are part of the skin), rotated rest position
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -20,18 +21,21 @@ EYE_PITCH_DEG = 25.0     # gaze range up/down at eye_pitch = +-1
 
 
 def rotation(axis: np.ndarray, angle: float, centre: np.ndarray | None = None) -> np.ndarray:
-    """4x4 rotation by ``angle`` (radians, right hand) about ``axis`` through ``centre``."""
-    axis = np.asarray(axis, np.float64)
-    axis = axis / np.linalg.norm(axis)
-    x, y, z = axis
-    c, s = np.cos(angle), np.sin(angle)
-    k = np.array([[0, -z, y], [z, 0, -x], [-y, x, 0]])
-    r = np.eye(3) + s * k + (1 - c) * (k @ k)
-    out = np.eye(4)
-    out[:3, :3] = r
+    """4x4 rotation by ``angle`` (radians, right hand) about ``axis`` through ``centre`` (Rodrigues,
+    ``I + sin K + (1 - cos) K^2``, written out: a frame builds a dozen of these, numpy's small-array calls
+    cost more than the arithmetic)."""
+    x, y, z = (float(v) for v in axis)
+    size = math.sqrt(x * x + y * y + z * z)
+    x, y, z = x / size, y / size, z / size
+    c, s = math.cos(angle), math.sin(angle)
+    t = 1.0 - c
+    out = np.array([[c + t * x * x, t * x * y - s * z, t * x * z + s * y, 0.0],
+                    [t * x * y + s * z, c + t * y * y, t * y * z - s * x, 0.0],
+                    [t * x * z - s * y, t * y * z + s * x, c + t * z * z, 0.0],
+                    [0.0, 0.0, 0.0, 1.0]])
     if centre is not None:
         centre = np.asarray(centre, np.float64)
-        out[:3, 3] = centre - r @ centre
+        out[:3, 3] = centre - out[:3, :3] @ centre
     return out
 
 

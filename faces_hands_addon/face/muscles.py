@@ -92,6 +92,7 @@ class MuscleSystem:
             self.position_along.append(s / length)
         self.centres = [None] * len(placed)
         self.fibre_squeeze = [None] * len(placed)
+        self._sphincters = None
 
     def set_centres(self, centres: list[np.ndarray | None]) -> None:
         """Sphincter centres of contraction (head coordinates, rest pose), one per muscle or None."""
@@ -114,6 +115,33 @@ class MuscleSystem:
             lateral = np.clip(np.abs(local[..., 0]) / half_width, 0.0, 1.0) ** 2          # (R, C)
             self.fibre_squeeze.append((horizontal * factor, vertical * factor, sideways,
                                        spec.rounding[1] * factor * lateral))
+        self._prepare_sphincters()
+
+    def _prepare_sphincters(self) -> None:
+        """Per control point of every sphincter with a centre: its muscle, its fibre's squeeze factors and
+        protrusion weight (flat, so that :meth:`_contract_sphincters` treats all of them at once)."""
+        muscles = [i for i, spec in enumerate(self.specs) if spec.kind != "linear" and self.centres[i] is not None]
+        if not muscles:
+            self._sphincters = None
+            return
+        pieces = []
+        for index in muscles:
+            rows, cols = self.shapes[index]
+            horizontal, vertical, sideways, lateral = self.fibre_squeeze[index]
+            spec = self.specs[index]
+            grid = lambda values: np.broadcast_to(values, (rows, cols)).ravel()      # noqa: E731
+            inner = np.linspace(1.0, 0.0, cols) if cols > 1 else np.ones(1)
+            oris = spec.group == "oris"
+            pieces.append((np.arange(self.offsets[index], self.offsets[index + 1]), np.full(rows * cols, index),
+                           grid(horizontal), grid(vertical), grid(sideways), grid(lateral),
+                           grid(inner) if oris else np.zeros(rows * cols), np.full(rows * cols, oris),
+                           np.full(rows * cols, spec.protrusion[0] if oris else 0.0),
+                           np.full(rows * cols, spec.protrusion[1] if oris else 0.0)))
+        (points, muscle, horizontal, vertical, sideways, lateral, inner, oris, forward,
+         backward) = (np.concatenate(column) for column in zip(*pieces))
+        self._sphincters = (points, muscle, np.stack([horizontal, vertical, sideways, lateral]), inner,
+                            oris.astype(bool), forward, backward,
+                            np.array([self.centres[i] if i in muscles else np.zeros(3) for i in range(len(self.specs))]))
 
     def _prepare_cells(self) -> None:
         cells, owner = [], []
@@ -233,9 +261,7 @@ class MuscleSystem:
         points = carried.copy()
         own_length = np.ones(len(self.rest))        # fibre length ratio from the muscle's own contraction
         self._contract_linear(contraction, jaw, on_jaw, points, own_length)
-        for index, spec in enumerate(self.specs):
-            if spec.kind != "linear" and self.centres[index] is not None:
-                self._contract_sphincter(index, spec, contraction[index], protrusion, jaw, points, own_length)
+        self._contract_sphincters(contraction, protrusion, jaw, points, own_length)
         points = self._connect(points, contraction)
         thickness = self._bulge(points, contraction, own_length)
         surface = points + normal * (thickness - self.thickness_rest)[:, None]
@@ -264,32 +290,30 @@ class MuscleSystem:
         points[which] = moved
         own_length[which] = ratio
 
-    def _contract_sphincter(self, index: int, spec, c: float, protrusion: float, jaw: np.ndarray,
-                            points: np.ndarray, own_length: np.ndarray) -> None:
-        """Step 1 for a sphincter (module docstring): towards its centre, the oris with protrusion and
+    def _contract_sphincters(self, contraction: np.ndarray, protrusion: float, jaw: np.ndarray, points: np.ndarray,
+                             own_length: np.ndarray) -> None:
+        """Step 1 for every sphincter at once (module docstring): towards its centre (the oris' centre
+        halfway carried by the jaw, in the mouth frame), squeezed per fibre, the oris with protrusion and
         rounding (in place)."""
-        sl = self.slice(index)
-        rows, cols = self.shapes[index]
-        centre = self.centres[index]
-        squeeze = self.fibre_squeeze[index]
-        if spec.group == "oris":
-            centre_now = 0.5 * (centre + _transform(jaw, centre[None])[0])
-            axes = self.mouth_axes
-        else:
-            centre_now = centre
-            axes = np.eye(3)
-        local = (points[sl].reshape(rows, cols, 3) - centre_now) @ axes.T
-        rounding = c * max(protrusion, 0.0) if spec.group == "oris" else 0.0
-        sx = 1.0 - c * squeeze[0][None, :] - rounding * squeeze[2][None, :]
-        sz = (1.0 - c * squeeze[1][None, :]) * np.clip(1.0 - rounding * squeeze[3], 0.0, 1.0)
-        local[..., 0] *= sx
-        local[..., 2] *= sz
-        if spec.group == "oris" and protrusion != 0.0:
-            travel = spec.protrusion[0] if protrusion > 0 else spec.protrusion[1]
-            inner_weight = np.linspace(1.0, 0.0, cols) if cols > 1 else np.ones(1)
-            local[..., 1] -= protrusion * travel * inner_weight[None, :]
-        points[sl] = (local @ axes + centre_now).reshape(-1, 3)
-        own_length[sl] = np.broadcast_to(0.5 * (sx + sz), (rows, cols)).ravel()
+        if self._sphincters is None:
+            return
+        which, muscle, squeeze, inner, oris, forward, backward, centres = self._sphincters
+        c = contraction[muscle]
+        centre = centres[muscle]
+        centre = np.where(oris[:, None], 0.5 * (centre + _transform(jaw, centre)), centre)
+        local = points[which] - centre
+        local[oris] = local[oris] @ self.mouth_axes.T
+        rounding = np.where(oris, c * max(protrusion, 0.0), 0.0)
+        sx = 1.0 - c * squeeze[0] - rounding * squeeze[2]
+        sz = (1.0 - c * squeeze[1]) * np.clip(1.0 - rounding * squeeze[3], 0.0, 1.0)
+        local[:, 0] *= sx
+        local[:, 2] *= sz
+        if protrusion != 0.0:
+            travel = forward if protrusion > 0 else backward
+            local[oris, 1] -= (protrusion * travel * inner)[oris]
+        local[oris] = local[oris] @ self.mouth_axes
+        points[which] = local + centre
+        own_length[which] = 0.5 * (sx + sz)
 
     def _connect(self, points: np.ndarray, contraction: np.ndarray) -> np.ndarray:
         """Steps 3 and 4 (module docstring): each connection group's original distances to its weighted

@@ -102,8 +102,12 @@ class BoneHalfSpaceGuard:
         """Pose the planes of the guarded nodes ``which`` (all for ``None``) with their bones."""
         self._posed = True
         for index, matrix in enumerate(self._transforms):
-            mask = (np.flatnonzero(self.bone == index) if which is None
-                    else which[self.bone[which] == index])
+            if which is None:            # every plane: whole-array products, kept where the bone is this one
+                mine = (self.bone == index)[None, :]
+                np.copyto(self.point, matrix[:3, :3] @ self.local_point + matrix[:3, 3:4], where=mine)
+                np.copyto(self.normal, matrix[:3, :3] @ self.local_normal, where=mine)
+                continue
+            mask = which[self.bone[which] == index]
             if len(mask):
                 self.point[:, mask] = matrix[:3, :3] @ self.local_point[:, mask] + matrix[:3, 3:4]
                 self.normal[:, mask] = matrix[:3, :3] @ self.local_normal[:, mask]

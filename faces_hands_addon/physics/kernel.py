@@ -36,7 +36,7 @@ from pathlib import Path
 
 __all__ = ["set_cache_folder", "cache_folder", "available", "substep_kernel", "guard_kernels",
            "compile_seconds", "ENV_VARIABLE", "AUTO_MIN_NODES", "AUTO_MIN_NODE_FRAMES", "pays_for", "loaded",
-           "BACKENDS", "expect_frames", "set_interactive"]
+           "BACKENDS", "expect_frames", "set_interactive", "compiled"]
 
 #: environment variable: "numpy" forces the reference path, "numba" the kernel for every network; unset:
 #: the kernel for networks of at least AUTO_MIN_NODES nodes
@@ -47,6 +47,7 @@ AUTO_MIN_NODE_FRAMES = 1_500_000
 BACKENDS = ("auto", "numba", "numpy")
 
 _HINTS = {"frames": 0, "interactive": False}
+_COMPILED: dict = {}
 _STATE = {"folder": None, "kernel": None, "half_space": None, "sphere": None, "tried": False,
           "compile_s": None, "error": None}
 
@@ -260,6 +261,19 @@ def guard_kernels():
     if substep_kernel() is None:
         return None
     return _STATE["half_space"], _STATE["sphere"]
+
+
+def compiled(function):
+    """``function`` compiled as the substep kernel is (numba, ``nogil``, cached in the same folder), once
+    per process, or ``None`` where the numpy path must run (numba missing or switched off). For other
+    engine loops that earn a compiled version (e.g. the weight fit of :mod:`..anim.weights`)."""
+    if substep_kernel() is None:
+        return None
+    key = (function.__module__, function.__qualname__)
+    if key not in _COMPILED:
+        import numba
+        _COMPILED[key] = numba.njit(cache=_STATE["folder"] is not None, nogil=True, boundscheck=False)(function)
+    return _COMPILED[key]
 
 
 def _warm_up(compiled) -> None:

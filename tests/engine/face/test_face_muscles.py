@@ -147,8 +147,20 @@ def _reference_deform(m, contraction, protrusion, jaw):
             flat[on_jaw[sl]] = carry(flat[on_jaw[sl]])
             points[sl], own[sl] = flat, 1.0 - c * spec.max_shortening
         elif spec.kind != "linear" and m.centres[index] is not None:
-            # the sphincters: the same code as the engine's (it already goes muscle by muscle)
-            m._contract_sphincter(index, spec, c, protrusion, jaw, points, own)
+            oris = spec.group == "oris"
+            centre = 0.5 * (m.centres[index] + carry(m.centres[index][None])[0]) if oris else m.centres[index]
+            axes = m.mouth_axes if oris else np.eye(3)
+            local = (points[sl].reshape(rows, cols, 3) - centre) @ axes.T
+            squeeze, rounding = m.fibre_squeeze[index], c * max(protrusion, 0.0) if oris else 0.0
+            sx = 1.0 - c * squeeze[0][None, :] - rounding * squeeze[2][None, :]
+            sz = (1.0 - c * squeeze[1][None, :]) * np.clip(1.0 - rounding * squeeze[3], 0.0, 1.0)
+            local[..., 0] *= sx
+            local[..., 2] *= sz
+            if oris and protrusion != 0.0:
+                travel = spec.protrusion[0] if protrusion > 0 else spec.protrusion[1]
+                local[..., 1] -= protrusion * travel * np.linspace(1.0, 0.0, cols)[None, :]
+            points[sl] = (local @ axes + centre).reshape(-1, 3)
+            own[sl] = np.broadcast_to(0.5 * (sx + sz), (rows, cols)).ravel()
     before, moved = points.copy(), points.copy()
     weight = 1.0 + 8.0 * contraction[m.muscle_of_point]
     for _, pts in m.groups:
