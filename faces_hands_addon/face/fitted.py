@@ -198,6 +198,10 @@ class FittedFaceRig(FaceRig):
         self._passive_rest = head.head_vertices[head.passive]
         self._passive_offset = np.zeros_like(self._passive_rest)
 
+    @classmethod
+    def _copy_of(cls, rig: "FittedFaceRig") -> "FittedFaceRig":
+        return cls(rig.fitted, rig.material)
+
     # -- mesh coordinates ---------------------------------------------------------------------------------
     @property
     def faces(self) -> np.ndarray:

@@ -108,6 +108,22 @@ class FaceRig:
         self.reset_controls()
         self.reset_state()
 
+    def worker_copy(self) -> "FaceRig":
+        """A rig that settles exactly as this one does (same template and material, same simulation
+        backend) with a simulation state of its own: :mod:`..anim.baking` settles shapes on it from
+        another thread. Static shapes start from rest, so nothing else of this rig's state matters."""
+        copy = type(self)._copy_of(self)
+        copy.identity = self.identity
+        copy.face.integrator.backend = self.face.integrator.backend
+        for mine, theirs in zip((copy.face.bone_guard, copy.face.teeth_guard, *copy.face.eye_guards),
+                                (self.face.bone_guard, self.face.teeth_guard, *self.face.eye_guards)):
+            mine.backend = theirs.backend
+        return copy
+
+    @classmethod
+    def _copy_of(cls, rig: "FaceRig") -> "FaceRig":
+        return cls(rig.template, rig.material)
+
     def pose(self) -> Pose:
         """The current pose: skin positions and the rigid parts' transforms (copies)."""
         return Pose({"skin": np.array(self.positions, dtype=np.float32, copy=True)}, self.rigid_transforms())
