@@ -251,6 +251,9 @@ class FittedFaceRig(FaceRig):
         return {name: np.eye(4) if np.array_equal(m, np.eye(4)) else forward @ m @ back
                 for name, m in super().rigid_transforms().items()}
 
+    def _display_points(self, points: np.ndarray) -> np.ndarray:
+        return self.to_mesh(points).astype(np.float32)
+
     def muscle_fibres(self) -> list[tuple[str, np.ndarray, float]]:
         return [(name, self.to_mesh(line).astype(np.float32), value)
                 for name, line, value in super().muscle_fibres()]

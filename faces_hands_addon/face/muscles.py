@@ -347,6 +347,23 @@ class MuscleSystem:
         grow = 1.0 + bulge * contraction[self.muscle_of_point] * profile
         return self.thickness_rest * grow / np.sqrt(stretch)[column]
 
+    def fibre_order(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The points of every fibre polyline of :meth:`fibres`, in its order, as one gather: ``(index, line
+        lengths, muscle of each line)`` (a closed fibre repeats its first point), built once."""
+        cached = getattr(self, "_fibre_order", None)
+        if cached is None:
+            index, lengths, muscle = [], [], []
+            for m in range(len(self.names)):
+                rows, cols = self.shapes[m]
+                grid = np.arange(self.offsets[m], self.offsets[m + 1]).reshape(rows, cols)
+                for c in range(cols):
+                    line = np.r_[grid[:, c], grid[:1, c]] if self.specs[m].closed else grid[:, c]
+                    index.append(line)
+                    lengths.append(len(line))
+                    muscle.append(m)
+            cached = self._fibre_order = (np.concatenate(index), np.array(lengths), np.array(muscle))
+        return cached
+
     def fibres(self, points: np.ndarray) -> list[tuple[str, np.ndarray]]:
         """Fibre polylines (muscle name, (R, 3)) of a deformed state, for visualisation."""
         out = []

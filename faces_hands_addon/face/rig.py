@@ -291,6 +291,18 @@ class FaceRig:
         return [(name, line.astype(np.float32), self.controls[name])
                 for name, line in self.template.muscles.fibres(points)]
 
+    def muscle_display(self) -> tuple[np.ndarray, np.ndarray]:
+        """What :meth:`muscle_fibres` shows, as two flat arrays for a display that draws every fibre as one
+        mesh: all fibre points (K, 3) float32 in :meth:`muscle_fibres`' order and each point's contraction
+        (K,) float32 (one gather instead of a polyline per fibre: the live preview's every tick)."""
+        self.attachment_targets()
+        index, lengths, muscle = self.template.muscles.fibre_order()
+        values = np.array([self.controls[name] for name in self.template.muscles.names], np.float32)
+        return self._display_points(self._muscle_state.points[index]), np.repeat(values[muscle], lengths)
+
+    def _display_points(self, points: np.ndarray) -> np.ndarray:
+        return points.astype(np.float32)
+
     def wrinkles(self) -> dict[str, float]:
         """Expressive-wrinkle strengths per region in [0, 1] (3.1.2 "Expressive Wrinkles"), by the same
         rule the wrinkle drivers use (:func:`..anim.layers.weighted_sum`)."""

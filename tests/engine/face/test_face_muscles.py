@@ -120,6 +120,11 @@ def test_wrinkle_strengths_follow_their_muscles(rig):
     fibres = rig.muscle_fibres()
     assert {name for name, _, _ in fibres} == set(rig.template.muscles.names)
     assert all(line.shape[1] == 3 and line.dtype == np.float32 for _, line, _ in fibres)
+    # the live display's flat arrays are the fibres, point for point, with each fibre's contraction
+    points, contraction = rig.muscle_display()
+    assert np.array_equal(points, np.concatenate([line for _, line, _ in fibres]))
+    assert np.array_equal(contraction, np.concatenate([np.full(len(line), value, np.float32)
+                                                       for _, line, value in fibres]))
 
 
 def _reference_deform(m, contraction, protrusion, jaw):
