@@ -27,6 +27,16 @@ its threads than computing them, badly so on a busy machine (a render farm, or t
 load, and ``./fh speak`` of 56.6 s of speech spent 43.6 s in the weight fit, 11.4 s with one BLAS thread for
 the whole process (both runs under load). So the frame loops run with one BLAS thread (``threadpoolctl``);
 the large products of a block keep every thread.
+
+Where numba is loaded the frames are solved by compiled primal-dual active-set loops (``_box_normal`` and
+``_box_qr``,
+Hintermueller, Ito & Kunisch 2002): the free weights solve the least-squares problem of their columns, a
+free weight beyond a bound is fixed there, a fixed one whose gradient points inside is freed, until the
+sets repeat -- then the KKT conditions of ``_optimal`` hold. Each frame starts from the previous frame's
+sets (~3 solves a frame). The free problem is solved from the normal equations by Cholesky where the prior
+rows bound their condition (<= T / lambda + 1), else by Householder QR of the free columns (the correctives'
+Gram matrix alone has condition ~4e10, too much to square). A frame it does not settle goes to
+:func:`bounded_nnls`, the reference (scipy's Lawson-Hanson NNLS, ~10x slower here).
 """
 from __future__ import annotations
 
@@ -115,61 +125,129 @@ def bounded_nnls(matrix: np.ndarray, rhs: np.ndarray, upper: float = 1.0, rounds
     return np.clip(weights, 0.0, upper)
 
 
-def _box_block(matrix, rhs, hessian, normal, low, high, rounds, weights, solved):  # pragma: no cover - compiled
-    """``min ||A w - b||, 0 <= w <= 1`` for every row ``b`` of ``rhs`` (F, m) by primal-dual active sets
-    (Hintermueller, Ito & Kunisch 2002): the free weights solve the least-squares problem of their columns,
-    a free weight beyond a bound is fixed there, a fixed one whose gradient points inside is freed, until
-    the sets repeat -- then the KKT conditions of :func:`_optimal` hold. The free problem is solved from the
-    normal equations (``hessian`` = A^T A) when ``normal`` (the prior term bounds their condition by
-    T / lambda + 1), else by Householder QR of the free columns (the correctives' Gram matrix alone has
-    condition ~4e10, too much to square). Each frame starts from the previous frame's sets (``low``/
-    ``high``, updated): ~3 solves a frame. ``solved[f]`` is False where ``rounds`` were not enough or a
-    free set was rank deficient (the caller solves that frame another way)."""
-    m, n = matrix.shape
-    for f in range(rhs.shape[0]):
-        b = rhs[f]
-        target = matrix.T @ b
-        tolerance = 1e-9 * max(1.0, np.abs(target).max())
-        at0, at1 = low.copy(), high.copy()
-        w = np.zeros(n)
-        solved[f] = False
+def _box_normal(hessian, targets, tolerances, low, high, rounds, weights, solved):  # pragma: no cover - compiled
+    """The active-set loop of the module docstring for each frame's ``targets`` row (A^T b), the free
+    weights from the normal equations ``hessian`` (A^T A) by Cholesky. Scalar loops only (numba compiles
+    them in about a second; numpy's array expressions took ~10 s). ``solved[f]`` False: not settled in
+    ``rounds`` rounds or not positive definite (the caller solves that frame another way)."""
+    n = hessian.shape[0]
+    chol, right, w, free = np.empty((n, n)), np.empty(n), np.empty(n), np.empty(n, np.int64)
+    for f in range(targets.shape[0]):
+        at0, at1, solved[f], ok = low.copy(), high.copy(), False, True
         for _ in range(rounds):
-            fixed = at0 | at1
-            free = np.flatnonzero(~fixed)
-            w[:] = 0.0
-            w[at1] = 1.0
-            if len(free) and normal:
-                system = np.empty((len(free), len(free)))
-                right = np.empty(len(free))
-                for j in range(len(free)):
-                    right[j] = target[free[j]] - np.sum(hessian[free[j]][at1])
-                    for k in range(len(free)):
-                        system[j, k] = hessian[free[j], free[k]]
-                w[free] = np.linalg.solve(system, right)
-            elif len(free):                         # Householder QR of the free columns, back substitution
-                columns = np.empty((m, len(free)))
-                for j in range(len(free)):
-                    columns[:, j] = matrix[:, free[j]]
-                q, upper = np.linalg.qr(columns)
-                y = np.ascontiguousarray(q.T) @ (b - matrix[:, at1].sum(axis=1))
-                for j in range(len(free) - 1, -1, -1):
-                    total = y[j]
-                    for k in range(j + 1, len(free)):
-                        total -= upper[j, k] * w[free[k]]
-                    w[free[j]] = total / upper[j, j] if upper[j, j] != 0.0 else np.nan
-            if not np.all(np.isfinite(w)):
+            k = 0
+            for i in range(n):
+                w[i] = 1.0 if at1[i] else 0.0
+                if not (at0[i] or at1[i]):
+                    free[k], k = i, k + 1
+            for a in range(k):
+                total = targets[f, free[a]]
+                for i in range(n):
+                    total -= hessian[free[a], i] * w[i]
+                right[a] = total
+            for j in range(k):                          # Cholesky, lower triangle
+                for i in range(j, k):
+                    total = hessian[free[i], free[j]]
+                    for p in range(j):
+                        total -= chol[i, p] * chol[j, p]
+                    if i == j:
+                        ok = ok and total > 0.0
+                        chol[j, j] = np.sqrt(total) if total > 0.0 else 1.0
+                    else:
+                        chol[i, j] = total / chol[j, j]
+            for j in range(k):                          # L y = right, then L^T x = y
+                for p in range(j):
+                    right[j] -= chol[j, p] * right[p]
+                right[j] /= chol[j, j]
+            for j in range(k - 1, -1, -1):
+                for p in range(j + 1, k):
+                    right[j] -= chol[p, j] * right[p]
+                right[j] /= chol[j, j]
+            for a in range(k):
+                w[free[a]] = right[a]
+            if not ok:
                 break
-            gradient = hessian @ w - target
-            new0 = (~fixed & (w < 0.0)) | (at0 & (gradient >= -tolerance))
-            new1 = (~fixed & (w > 1.0)) | (at1 & (gradient <= tolerance))
-            if np.array_equal(new0, at0) and np.array_equal(new1, at1):
+            if _sets_settled(hessian, targets[f], tolerances[f], w, at0, at1):
                 solved[f] = True
                 break
-            at0, at1 = new0, new1
         if solved[f]:
-            weights[f] = np.minimum(np.maximum(w, 0.0), 1.0)
+            for i in range(n):
+                weights[f, i] = min(max(w[i], 0.0), 1.0)
             low[:] = at0
             high[:] = at1
+
+
+def _box_qr(matrix, rhs, hessian, targets, tolerances, low, high, rounds, weights,
+            solved):  # pragma: no cover - compiled
+    """:func:`_box_normal` with the free weights from Householder QR of the free columns of ``matrix``
+    (the squared system's condition would be too large: the correctives' Gram matrix alone has ~4e10)."""
+    m, n = matrix.shape
+    work, right, w, free = np.empty((m, n)), np.empty(m), np.empty(n), np.empty(n, np.int64)
+    for f in range(rhs.shape[0]):
+        at0, at1, solved[f], ok = low.copy(), high.copy(), False, True
+        for _ in range(rounds):
+            k = 0
+            for i in range(n):
+                w[i] = 1.0 if at1[i] else 0.0
+                if not (at0[i] or at1[i]):
+                    free[k], k = i, k + 1
+            for r in range(m):
+                total = rhs[f, r]
+                for i in range(n):
+                    total -= matrix[r, i] * w[i]
+                right[r] = total
+                for c in range(k):
+                    work[r, c] = matrix[r, free[c]]
+            for j in range(k):
+                size = 0.0
+                for r in range(j, m):
+                    size += work[r, j] * work[r, j]
+                ok = ok and size > 0.0
+                alpha = -np.sqrt(size) if work[j, j] > 0.0 else np.sqrt(size)
+                work[j, j] -= alpha                     # the reflector v = x - alpha e1, kept in column j
+                length = max(size - 2.0 * alpha * (work[j, j] + alpha) + alpha * alpha, 1e-300)
+                for c in range(j + 1, k + 1):           # columns right of j, then the right-hand side
+                    total = 0.0
+                    for r in range(j, m):
+                        total += work[r, j] * (work[r, c] if c < k else right[r])
+                    for r in range(j, m):
+                        if c < k:
+                            work[r, c] -= 2.0 * total / length * work[r, j]
+                        else:
+                            right[r] -= 2.0 * total / length * work[r, j]
+                work[j, j] = alpha if size > 0.0 else 1.0
+            for j in range(k - 1, -1, -1):
+                for p in range(j + 1, k):
+                    right[j] -= work[j, p] * right[p]
+                right[j] /= work[j, j]
+            for a in range(k):
+                w[free[a]] = right[a]
+            if not ok:
+                break
+            if _sets_settled(hessian, targets[f], tolerances[f], w, at0, at1):
+                solved[f] = True
+                break
+        if solved[f]:
+            for i in range(n):
+                weights[f, i] = min(max(w[i], 0.0), 1.0)
+            low[:] = at0
+            high[:] = at1
+
+
+def _sets_settled(hessian, target, tolerance, w, at0, at1) -> bool:  # pragma: no cover - compiled
+    """One active-set update (in place): a free weight beyond a bound is fixed there, a fixed one whose
+    gradient (A^T (A w - b)) points inside is freed. True when nothing changed (the KKT point)."""
+    changed = False
+    for i in range(len(w)):
+        gradient = -target[i]
+        for c in range(len(w)):
+            gradient += hessian[i, c] * w[c]
+        fixed = at0[i] or at1[i]
+        now0 = (at0[i] and gradient >= -tolerance) if fixed else w[i] < 0.0
+        now1 = (at1[i] and gradient <= tolerance) if fixed else w[i] > 1.0
+        changed = changed or now0 != at0[i] or now1 != at1[i]
+        at0[i], at1[i] = now0, now1
+    return not changed
 
 
 def _optimal(matrix: np.ndarray, rhs: np.ndarray, weights: np.ndarray, upper: float) -> bool:
@@ -220,17 +298,22 @@ class _Stage:
         return out
 
     def _solve_rows(self, matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-        """Bounded least squares for every row of ``rhs``: the compiled active-set loop (:func:`_box_block`,
-        warm-started frame to frame) where numba is loaded, :func:`bounded_nnls` for the frames it leaves
+        """Bounded least squares for every row of ``rhs``: the compiled active-set loop (:func:`_box_normal`
+        / :func:`_box_qr`, warm-started frame to frame) where numba is loaded, :func:`bounded_nnls` for the frames it leaves
         and everywhere without numba (the reference)."""
-        solve = kernel.compiled(_box_block) if kernel.loaded() else None
         weights = np.zeros((len(rhs), matrix.shape[1]))
         solved = np.zeros(len(rhs), bool)
-        if solve is not None:
+        if kernel.loaded() and kernel.compiled(_sets_settled) is not None:         # numba is here
             low, high = self._sets
-            normal = matrix.shape[0] > matrix.shape[1]                    # the prior rows are stacked below
-            solve(matrix, rhs, np.ascontiguousarray(matrix.T @ matrix), normal, low, high, BOX_ROUNDS, weights,
-                  solved)
+            hessian = np.ascontiguousarray(matrix.T @ matrix)
+            targets = np.ascontiguousarray(rhs @ matrix)                  # A^T b of every frame
+            tolerances = 1e-9 * np.maximum(1.0, np.abs(targets).max(axis=1))   # as _optimal's
+            if matrix.shape[0] > matrix.shape[1]:                        # the prior rows stacked below
+                kernel.compiled(_box_normal, _sets_settled)(hessian, targets, tolerances, low, high, BOX_ROUNDS,
+                                                            weights, solved)
+            else:
+                kernel.compiled(_box_qr, _sets_settled)(matrix, rhs, hessian, targets, tolerances, low, high,
+                                                        BOX_ROUNDS, weights, solved)
         for f in np.flatnonzero(~solved):
             weights[f] = bounded_nnls(matrix, rhs[f])
         return weights

@@ -263,15 +263,23 @@ def guard_kernels():
     return _STATE["half_space"], _STATE["sphere"]
 
 
-def compiled(function):
+def compiled(function, *helpers):
     """``function`` compiled as the substep kernel is (numba, ``nogil``, cached in the same folder), once
     per process, or ``None`` where the numpy path must run (numba missing or switched off). For other
-    engine loops that earn a compiled version (e.g. the weight fit of :mod:`..anim.weights`)."""
+    engine loops that earn a compiled version (e.g. the weight fit of :mod:`..anim.weights`). ``helpers``:
+    module-level functions ``function`` calls, compiled first and called compiled."""
     if substep_kernel() is None:
         return None
     key = (function.__module__, function.__qualname__)
     if key not in _COMPILED:
+        import types
         import numba
+        names = {helper.__name__: compiled(helper) for helper in helpers}
+        if names:
+            original = function
+            function = types.FunctionType(original.__code__, {**original.__globals__, **names}, original.__name__,
+                                          original.__defaults__, original.__closure__)
+            function.__qualname__, function.__module__ = original.__qualname__, original.__module__
         _COMPILED[key] = numba.njit(cache=_STATE["folder"] is not None, nogil=True, boundscheck=False)(function)
     return _COMPILED[key]
 

@@ -107,14 +107,16 @@ def _box_problems(rng, frames, rows, cols, prior=None):
 
 @pytest.mark.skipif(importlib.util.find_spec("numba") is None, reason="numba is not importable here")
 def test_compiled_box_solver_finds_the_reference_minimum_and_leaves_it_the_hard_frames(monkeypatch):
-    """The weights bake's compiled active-set loop (``_box_block``, warm-started frame to frame) reaches the
-    minimum :func:`bounded_nnls` (the reference) reaches: the same cost, and the same weights wherever the
-    problem is well conditioned (here: with prior rows); frames it cannot settle go to the reference."""
+    """The weights bake's compiled active-set loops (``_box_normal`` with prior rows, ``_box_qr`` without;
+    warm-started frame to frame) reach the minimum :func:`bounded_nnls` (the reference) reaches: the same
+    cost, and the same weights wherever the problem is well conditioned (here: with prior rows); frames they
+    cannot settle go to the reference."""
     from faces_hands_addon.anim import weights as weights_module
     from faces_hands_addon.physics import kernel
     monkeypatch.delenv("FH_PHYSICS_KERNEL", raising=False)
-    solve = kernel.compiled(weights_module._box_block)
-    assert solve is not None
+    normal = kernel.compiled(weights_module._box_normal, weights_module._sets_settled)
+    qr = kernel.compiled(weights_module._box_qr, weights_module._sets_settled)
+    assert normal is not None and qr is not None
     rng = np.random.default_rng(21)
     for prior, tolerance in ((None, None), (0.5, 1e-9)):
         for _ in range(6):
@@ -122,8 +124,12 @@ def test_compiled_box_solver_finds_the_reference_minimum_and_leaves_it_the_hard_
             count = matrix.shape[1]
             low, high = np.ones(count, bool), np.zeros(count, bool)
             weights, solved = np.zeros((len(rhs), count)), np.zeros(len(rhs), bool)
-            solve(matrix, rhs, np.ascontiguousarray(matrix.T @ matrix), prior is not None, low, high, 30, weights,
-                  solved)
+            hessian, targets = np.ascontiguousarray(matrix.T @ matrix), np.ascontiguousarray(rhs @ matrix)
+            tolerances = 1e-9 * np.maximum(1.0, np.abs(targets).max(axis=1))
+            if prior is not None:
+                normal(hessian, targets, tolerances, low, high, 30, weights, solved)
+            else:
+                qr(matrix, rhs, hessian, targets, tolerances, low, high, 30, weights, solved)
             assert solved.mean() > 0.9
             for row, ours in zip(rhs[solved], weights[solved]):
                 reference = bounded_nnls(matrix, row)
