@@ -49,7 +49,8 @@ def make_rig(resolution: str):
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--resolutions", nargs="+", default=["default", "10k"], choices=sorted(LABELS))
-    parser.add_argument("--threads", type=int, default=baking.SETTLE_THREADS, help="threads of the threaded run")
+    parser.add_argument("--threads", type=int, default=getattr(baking, "SETTLE_THREADS", 1),
+                        help="threads of the threaded run (a build without threaded settles: 1)")
     parser.add_argument("--backends", nargs="+", default=["numpy", "numba"], choices=["numpy", "numba"])
     args = parser.parse_args()
     baking.SETTLE_THREADS = args.threads
