@@ -115,15 +115,18 @@ def main() -> None:
     backend = "numba" if compiled is not None else "numpy"
     print(f"settings: Blender {bpy.app.version_string}, backend {backend} (first-call compile "
           f"{kernel.compile_seconds() or 0:.2f} s, cache {kernel.cache_folder()}), frame dt 1/24 s, "
-          f"{args.frames} ticks, every control animated, one core; medians, shared machine")
+          f"{args.frames} ticks, every control animated, one thread, {os.cpu_count()} cores; medians, shared "
+          f"machine (the load average is printed per head)")
     cases = [("3k", lambda: default_rig("default")), ("11k", lambda: default_rig("10k"))]
     if not args.skip_fitted:
         cases.append(("50k", fitted_rig))
     result = []
     for label, make in cases:
         obj = make()
+        load = os.getloadavg()[0]
         f = measure(obj, args.frames if label != "50k" else max(12, args.frames // 2))
-        print(f"{label:>4}: {f['vertices']} vertices, {f['nodes']} simulated nodes, {f['substeps']} substeps: "
+        print(f"{label:>4} (load average {load:.1f}): {f['vertices']} vertices, {f['nodes']} simulated nodes, "
+              f"{f['substeps']} substeps: "
               f"live tick {f['ms']:.2f} ms wall ({1e3 / f['ms']:.0f} fps), {f['cpu_ms']:.2f} ms CPU "
               f"({1e3 / f['cpu_ms']:.0f} fps); wall split: get_rig {f['rig']:.3f} + step "
               f"{f['step']:.2f} + write {f['write']:.2f} + depsgraph {f['depsgraph']:.2f} ms")

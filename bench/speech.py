@@ -160,13 +160,19 @@ def end_to_end(text: str) -> list[str]:
                 ("speak", ["speak", "--text", text, "--out", str(folder / "speak.glb")], {}),
                 ("lipsync", ["lipsync", "--audio", str(recording), "--transcript", text,
                              "--out", str(folder / "lipsync.glb")], {})]
+        print(f"settings: {os.cpu_count()} cores, default voice/rate/fps (30), weights export (the default), "
+              "shape cache in the user folder (speak_cold: FH_NO_SHAPE_CACHE=1); wall = what a user waits, "
+              "CPU = user + system of the command's processes (> wall where a second core worked)")
         for name, arguments, env in runs:
+            load = os.getloadavg()[0]
             lines, total, cpu = timed_command(arguments, env)
             speech, stages = stage_split(lines, total)
             split = ", ".join(f"{stage} {sec:.2f} s ({sec / speech:.3f}x)" for stage, sec in stages.items())
             print(f"./fh {arguments[0]}{' (shape cache off)' if env else ''}: {speech:.1f} s of speech in "
-                  f"{total:.1f} s = {total / speech:.3f}x real time (CPU {cpu:.1f} s); {split}")
-            keys += [f"{name}_total_rt={total / speech:.3f}", f"{name}_cpu_rt={cpu / speech:.3f}"]
+                  f"{total:.1f} s = {total / speech:.3f}x real time = {total * SECONDS / speech:.1f} s per 30 s "
+                  f"(CPU {cpu:.1f} s; load average before {load:.1f}); {split}")
+            keys += [f"{name}_s_per_30s={total * SECONDS / speech:.2f}", f"{name}_cpu_s_per_30s={cpu * SECONDS / speech:.2f}",
+                     f"{name}_total_rt={total / speech:.3f}", f"{name}_cpu_rt={cpu / speech:.3f}"]
             keys += [f"{name}_{re.sub(r'[^a-z]+', '_', stage).strip('_')}_rt={sec / speech:.4f}"
                      for stage, sec in stages.items()]
     return keys

@@ -14,8 +14,12 @@ baked; the same rig and inputs give byte-identical shapes.
 """
 from __future__ import annotations
 
+import os
+import queue
+from collections import deque
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import Iterator, Mapping
+from typing import Iterable, Iterator, Mapping
 
 from ..core.controls import clamp_controls
 from ..core.rig import Pose, Rig
@@ -24,6 +28,9 @@ from .layers import BASE_LAYER, LayerTable
 from .shape_cache import ShapeCache
 
 SETTLE_DT = 1 / 24          # the step ``Rig.settled`` uses by default
+#: static shapes settle on this many threads (at most one per core) when the rig offers ``worker_copy``;
+#: the compiled substeps release the GIL, so the second core settles the next shape meanwhile
+SETTLE_THREADS = 2
 
 __all__ = ["BASIS_PREFIX", "BakedShape", "basis_shapes", "expression_shapes", "animation_poses",
            "frame_key_name"]
@@ -48,12 +55,63 @@ def _settled(rig: Rig, values: dict, settle_time: float, cache: ShapeCache | Non
     return cache.settled(rig, layer_values, settle_time, SETTLE_DT, lambda: rig.settled(layer_values, settle_time))
 
 
+def _settled_in_order(rig: Rig, value_list: Iterable[dict], settle_time: float,
+                      cache: ShapeCache | None) -> Iterator[Pose]:
+    """The settled pose of each control dict of ``value_list``, in order. A rig with ``worker_copy()``
+    settles the shapes the cache does not hold on :data:`SETTLE_THREADS` threads, each on its own copy
+    (the rig itself stays free for the caller); a settle starts from rest, so each shape is byte-identical
+    to the one settled alone. Closing the generator early waits for the settles under way."""
+    threads = min(SETTLE_THREADS, os.cpu_count() or 1) if hasattr(rig, "worker_copy") else 1
+    if threads <= 1:
+        for values in value_list:
+            yield _settled(rig, values, settle_time, cache)
+        return
+    copies: queue.SimpleQueue = queue.SimpleQueue()
+    for _ in range(threads):
+        copies.put(rig.worker_copy())
+
+    def settle(values: dict) -> Pose:
+        worker = copies.get()
+        try:
+            return worker.settled({BASE_LAYER: values}, settle_time)
+        finally:
+            copies.put(worker)
+
+    pending: deque = deque()
+    with ThreadPoolExecutor(threads, thread_name_prefix="fh-settle") as pool:
+        try:
+            for values in value_list:
+                place, pose = cache.lookup(rig, {BASE_LAYER: values}, settle_time, SETTLE_DT) if cache else (None, None)
+                if pose is None:
+                    future = pool.submit(settle, values)
+                else:
+                    future = Future()
+                    future.set_result(pose)
+                pending.append((place, pose is None, future))
+                while len(pending) > 2 * threads:
+                    yield _collect(pending.popleft(), cache)
+            while pending:
+                yield _collect(pending.popleft(), cache)
+        finally:
+            pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _collect(entry, cache: ShapeCache | None) -> Pose:
+    place, computed, future = entry
+    pose = future.result()
+    if computed and cache is not None:
+        cache.store(place, pose)
+    return pose
+
+
 def basis_shapes(rig: Rig, settle_time: float = 1.5, cache: ShapeCache | None = None) -> Iterator[BakedShape]:
     """One shape per control at its full value (the range end farthest from 0); ``cache`` keeps settled
     shapes across bakes (``shape_cache``)."""
-    for name, spec in rig.control_specs().items():
+    specs = list(rig.control_specs().items())
+    poses = _settled_in_order(rig, ({name: spec.full_value} for name, spec in specs), settle_time, cache)
+    for index, pose in enumerate(poses):
+        name, spec = specs[index]
         full = spec.full_value
-        pose = _settled(rig, {name: full}, settle_time, cache)
         yield BakedShape(BASIS_PREFIX + name, pose, control=name,
                          value_range=(spec.minimum / full if full else 0.0, spec.maximum / full if full else 1.0))
     rig.reset()
@@ -63,9 +121,10 @@ def expression_shapes(rig: Rig, expressions: Mapping[str, Mapping[str, float]], 
                       cache: ShapeCache | None = None) -> Iterator[BakedShape]:
     """One shape per named expression (a partial control dict; unknown control names are refused)."""
     specs = rig.control_specs()
-    for name, expression in expressions.items():
-        values = clamp_controls(expression, specs, strict=True)
-        yield BakedShape(name, _settled(rig, values, settle_time, cache))
+    checked = {name: clamp_controls(expression, specs, strict=True) for name, expression in expressions.items()}
+    names = list(checked)
+    for index, pose in enumerate(_settled_in_order(rig, checked.values(), settle_time, cache)):
+        yield BakedShape(names[index], pose)
     rig.reset()
 
 

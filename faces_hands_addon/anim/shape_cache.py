@@ -72,19 +72,31 @@ class ShapeCache:
 
     def settled(self, rig, values: Mapping, settle_time: float, dt: float, compute: Callable[[], Pose]) -> Pose:
         """The cached pose for (rig, values, time, step), or ``compute()`` stored for next time."""
+        path, pose = self.lookup(rig, values, settle_time, dt)
+        if pose is None:
+            pose = compute()
+            self.store(path, pose)
+        return pose
+
+    def lookup(self, rig, values: Mapping, settle_time: float, dt: float) -> tuple[Path | None, Pose | None]:
+        """``(where the pose belongs, the cached pose or None)``; the place is None when nothing is cached
+        (no folder, or a rig without an identity)."""
         identity = getattr(rig, "identity", "")
         if self.folder is None or not identity:
-            return compute()
+            return None, None
         path = self.folder / f"{self.key(identity, values, settle_time, dt)}.npz"
         pose = _read(path)
         if pose is not None:
             self.hits += 1
-            return pose
-        self.misses += 1
-        pose = compute()
-        _write(path, pose)
-        self._prune()
-        return pose
+        else:
+            self.misses += 1
+        return path, pose
+
+    def store(self, path: Path | None, pose: Pose) -> None:
+        """Keep ``pose`` at the place :meth:`lookup` named (nothing for None)."""
+        if path is not None:
+            _write(path, pose)
+            self._prune()
 
     def _prune(self) -> None:
         entries = sorted(self.folder.glob("*.npz"), key=lambda p: p.stat().st_mtime)

@@ -11,11 +11,12 @@ from scipy.spatial import cKDTree
 from .errors import UserError
 
 __all__ = ["unique_edges", "edge_length_graph", "face_normals", "triangle_normals", "vertex_normals", "vertex_areas",
-           "boundary_edge_flags", "closest_points_on_triangles", "closest_points", "mirror_map",
+           "boundary_edge_flags", "closest_points_on_triangles", "closest_points", "centroid_tree", "mirror_map",
            "winding_number", "checked_mesh", "MAX_VERTICES", "MAX_TRIANGLES", "similarity_transform"]
 
 MAX_VERTICES = 5_000_000
 MAX_TRIANGLES = 10_000_000
+_CLOSEST_ROWS = 65536      # point x candidate pairs :func:`closest_points` evaluates in one pass
 
 
 def unique_edges(faces: np.ndarray, return_counts: bool = False):
@@ -128,33 +129,44 @@ def closest_points_on_triangles(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: 
     return point, bary
 
 
-def closest_points(vertices: np.ndarray, faces: np.ndarray, points: np.ndarray, candidates: int = 12):
+def centroid_tree(vertices: np.ndarray, faces: np.ndarray) -> cKDTree:
+    """The KD-tree on triangle centroids :func:`closest_points` searches; build it once for a mesh that is
+    queried again and again (a bone the skin guard re-anchors on every frame) and pass it as ``tree``."""
+    return cKDTree(np.asarray(vertices, np.float64)[np.asarray(faces, np.int64)].mean(axis=1))
+
+
+def closest_points(vertices: np.ndarray, faces: np.ndarray, points: np.ndarray, candidates: int = 12,
+                   tree: cKDTree | None = None):
     """Closest points on a triangle mesh: ``(point (M,3), face index (M,), barycentric (M,3), distance)``.
 
     Candidate triangles come from a KD-tree on triangle centroids (exact for meshes whose triangles are
-    small relative to the query distance; ``candidates`` widens the search). For uneven meshes and
-    repeated queries use ``fitting.surface.TargetSurface``."""
+    small relative to the query distance; ``candidates`` widens the search); ``tree``: that tree
+    (:func:`centroid_tree`) when the caller keeps it, the same answer without rebuilding it. For uneven
+    meshes and repeated queries use ``fitting.surface.TargetSurface``."""
     vertices = np.asarray(vertices, np.float64)
     faces = np.asarray(faces, np.int64)
     points = np.asarray(points, np.float64)
-    centroids = vertices[faces].mean(axis=1)
     k = min(candidates, len(faces))
-    _, cand = cKDTree(centroids).query(points, k=k)
+    _, cand = (centroid_tree(vertices, faces) if tree is None else tree).query(points, k=k)
     cand = cand.reshape(len(points), k)
-    best_d = np.full(len(points), np.inf)
-    best_p = np.zeros_like(points)
-    best_f = np.zeros(len(points), np.int64)
-    best_b = np.zeros((len(points), 3))
-    for j in range(k):
-        f = cand[:, j]
+    best_p, best_b = np.zeros_like(points), np.zeros((len(points), 3))
+    best_f, best_d = np.zeros(len(points), np.int64), np.full(len(points), np.inf)
+    chunk = max(1, _CLOSEST_ROWS // k)
+    for begin in range(0, len(points), chunk):     # every candidate of a chunk of points in one pass
+        rows = slice(begin, begin + chunk)
+        f = cand[rows].ravel()
+        p = np.repeat(points[rows], k, axis=0)
         tri = vertices[faces[f]]
-        p, b = closest_points_on_triangles(points, tri[:, 0], tri[:, 1], tri[:, 2])
-        d = np.linalg.norm(p - points, axis=1)
-        better = d < best_d
-        best_d[better] = d[better]
-        best_p[better] = p[better]
-        best_f[better] = f[better]
-        best_b[better] = b[better]
+        q, b = closest_points_on_triangles(p, tri[:, 0], tri[:, 1], tri[:, 2])
+        d = np.linalg.norm(q - p, axis=1)
+        d = np.where(d < np.inf, d, np.inf).reshape(-1, k)          # NaN never wins
+        pick = np.argmin(d, axis=1)                                  # the first of equals, as a j loop
+        at = np.arange(len(pick)) * k + pick
+        found = d[np.arange(len(pick)), pick] < np.inf
+        best_d[rows] = np.where(found, d.ravel()[at], np.inf)
+        best_p[rows] = np.where(found[:, None], q[at], 0.0)
+        best_f[rows] = np.where(found, f[at], 0)
+        best_b[rows] = np.where(found[:, None], b[at], 0.0)
     return best_p, best_f, best_b, best_d
 
 

@@ -198,6 +198,10 @@ class FittedFaceRig(FaceRig):
         self._passive_rest = head.head_vertices[head.passive]
         self._passive_offset = np.zeros_like(self._passive_rest)
 
+    @classmethod
+    def _copy_of(cls, rig: "FittedFaceRig") -> "FittedFaceRig":
+        return cls(rig.fitted, rig.material)
+
     # -- mesh coordinates ---------------------------------------------------------------------------------
     @property
     def faces(self) -> np.ndarray:
@@ -246,6 +250,9 @@ class FittedFaceRig(FaceRig):
         forward, back = self.head_to_mesh, np.linalg.inv(self.head_to_mesh)
         return {name: np.eye(4) if np.array_equal(m, np.eye(4)) else forward @ m @ back
                 for name, m in super().rigid_transforms().items()}
+
+    def _display_points(self, points: np.ndarray) -> np.ndarray:
+        return self.to_mesh(points).astype(np.float32)
 
     def muscle_fibres(self) -> list[tuple[str, np.ndarray, float]]:
         return [(name, self.to_mesh(line).astype(np.float32), value)

@@ -6,6 +6,7 @@ coordinates or, for the lids (which are part of the skin), rotated rest position
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -20,18 +21,21 @@ EYE_PITCH_DEG = 25.0     # gaze range up/down at eye_pitch = +-1
 
 
 def rotation(axis: np.ndarray, angle: float, centre: np.ndarray | None = None) -> np.ndarray:
-    """4x4 rotation by ``angle`` (radians, right hand) about ``axis`` through ``centre``."""
-    axis = np.asarray(axis, np.float64)
-    axis = axis / np.linalg.norm(axis)
-    x, y, z = axis
-    c, s = np.cos(angle), np.sin(angle)
-    k = np.array([[0, -z, y], [z, 0, -x], [-y, x, 0]])
-    r = np.eye(3) + s * k + (1 - c) * (k @ k)
-    out = np.eye(4)
-    out[:3, :3] = r
+    """4x4 rotation by ``angle`` (radians, right hand) about ``axis`` through ``centre`` (Rodrigues,
+    ``I + sin K + (1 - cos) K^2``, written out: a frame builds a dozen of these, numpy's small-array calls
+    cost more than the arithmetic)."""
+    x, y, z = (float(v) for v in axis)
+    size = math.sqrt(x * x + y * y + z * z)
+    x, y, z = x / size, y / size, z / size
+    c, s = math.cos(angle), math.sin(angle)
+    t = 1.0 - c
+    out = np.array([[c + t * x * x, t * x * y - s * z, t * x * z + s * y, 0.0],
+                    [t * x * y + s * z, c + t * y * y, t * y * z - s * x, 0.0],
+                    [t * x * z - s * y, t * y * z + s * x, c + t * z * z, 0.0],
+                    [0.0, 0.0, 0.0, 1.0]])
     if centre is not None:
         centre = np.asarray(centre, np.float64)
-        out[:3, 3] = centre - r @ centre
+        out[:3, 3] = centre - out[:3, :3] @ centre
     return out
 
 
@@ -160,7 +164,11 @@ class LidRig:
         theta_l = np.interp(x, self._lx, self._le)
         elevation = _elevation(nodes, self.centre)
         near = np.linalg.norm(nodes - self.centre, axis=1) < radius
-        is_upper = elevation > 0.5 * (theta_u + theta_l)
+        # a node on a canthus, where both margins meet, belongs to the lower lid (it stays when the lid
+        # closes): an exact tie must not be decided by the last bit of the elementwise trigonometry, which
+        # numpy's vectorised loops compute differently for an element that falls in a scalar head or tail
+        # (where depends on the array's address: the 10k head's corner node changed lid from run to run)
+        is_upper = elevation > 0.5 * (theta_u + theta_l) + 1e-9
         d_up = np.min(np.linalg.norm(nodes[:, None] - up[None], axis=2), axis=1)
         d_low = np.min(np.linalg.norm(nodes[:, None] - low[None], axis=2), axis=1)
         distance = np.where(is_upper, d_up, d_low)
@@ -173,37 +181,46 @@ class LidRig:
         order = np.argsort(margin[:, 0], kind="stable")
         return margin[order, 0], _elevation(margin[order], self.centre)
 
-    def rotations(self, close: float, pitch: float, lift: float = 0.0) -> np.ndarray:
-        """Rotation angle (radians, + = up) of every node for lid closure ``close``, gaze ``pitch`` and
-        upper-lid raise ``lift`` (levator palpebrae superioris, FACS AU5: :data:`RAISE` at 1)."""
+    def rotations(self, close: float, pitch: float, lift: float = 0.0, nodes: np.ndarray | None = None) -> np.ndarray:
+        """Rotation angle (radians, + = up) of every node (or of ``nodes`` only) for lid closure ``close``,
+        gaze ``pitch`` and upper-lid raise ``lift`` (levator palpebrae superioris, FACS AU5: :data:`RAISE`
+        at 1)."""
+        pick = slice(None) if nodes is None else nodes
+        theta_u, theta_l = self.theta_u[pick], self.theta_l[pick]
         close = float(np.clip(close, 0.0, 1.0))
         gaze = np.radians(EYE_PITCH_DEG) * float(np.clip(pitch, -1.0, 1.0))
-        upper = self.theta_u + self.FOLLOW_UPPER * gaze + self.RAISE * float(np.clip(lift, 0.0, 1.0))
-        lower = self.theta_l + self.FOLLOW_LOWER * gaze
+        upper = theta_u + self.FOLLOW_UPPER * gaze + self.RAISE * float(np.clip(lift, 0.0, 1.0))
+        lower = theta_l + self.FOLLOW_LOWER * gaze
         aperture = np.maximum(upper - lower, 0.0)
         meeting = lower + self.MEETING * aperture
         upper_final = upper + close * (meeting - 0.03 - upper)     # a little overlap: closed means closed
         lower_final = lower + close * (meeting - lower)
-        delta = np.where(self.is_upper, upper_final - self.theta_u, lower_final - self.theta_l)
-        return self.weight * delta
+        delta = np.where(self.is_upper[pick], upper_final - theta_u, lower_final - theta_l)
+        return self.weight[pick] * delta
 
     def rotate(self, rest: np.ndarray, close: float, pitch: float, lift: float = 0.0) -> np.ndarray:
         """Rest positions of all nodes (N,3) rotated by :meth:`rotations` about the eye's X axis."""
+        out = rest.copy()
+        out[self.index] = self.rotate_lid(rest[self.index], close, pitch, lift)
+        return out
+
+    def rotate_lid(self, lid_rest: np.ndarray, close: float, pitch: float, lift: float = 0.0) -> np.ndarray:
+        """:meth:`rotate` for the lid's own nodes only: their rest positions (len(index), 3) in, rotated out
+        (what a frame needs; the other nodes do not move)."""
         index = self.index
-        angle = self.rotations(close, pitch, lift)[index]
-        d = rest[index] - self.centre
+        angle = self.rotations(close, pitch, lift, index)
+        d = lid_rest - self.centre
         c, s = np.cos(angle), np.sin(angle)
         # elevation +a about X with forward = -Y: (y, z) -> (y cos a + z sin a, z cos a - y sin a)
-        out = rest.copy()
-        out[index, 1] = self.centre[1] + d[:, 1] * c + d[:, 2] * s
-        out[index, 2] = self.centre[2] + d[:, 2] * c - d[:, 1] * s
+        out = lid_rest.copy()
+        out[:, 1] = self.centre[1] + d[:, 1] * c + d[:, 2] * s
+        out[:, 2] = self.centre[2] + d[:, 2] * c - d[:, 1] * s
         # a lid sliding down over the cornea must stay outside the eyeball: lift moving surface nodes that
         # the canonical (flat) lid puts inside the sphere, in proportion to how far they have turned
-        moved = out[index] - self.centre
+        moved = out - self.centre
         radius = np.linalg.norm(moved, axis=1)
         lift = np.clip(np.abs(angle) / 0.06, 0.0, 1.0) * self.surface[index]
         ahead = np.degrees(np.arccos(np.clip(-moved[:, 1] / np.maximum(radius, 1e-12), -1.0, 1.0)))
         clear = self.clear_radius + self.eyeball_radius * cornea_bulge(ahead)    # over the cornea too
         new_radius = radius + lift * np.maximum(clear - radius, 0.0)
-        out[index] = self.centre + moved * (new_radius / np.maximum(radius, 1e-12))[:, None]
-        return out
+        return self.centre + moved * (new_radius / np.maximum(radius, 1e-12))[:, None]

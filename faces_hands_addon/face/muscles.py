@@ -32,6 +32,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import sparse
 
 from .muscle_layout import ConnectionSpec, PlacedMuscle
 
@@ -72,6 +73,7 @@ class MuscleSystem:
         self._prepare_cells()
         self._prepare_connections(placed, connections)
         self._prepare_propagation()
+        self._prepare_tables()
 
     # -- static preparation ----------------------------------------------------------------------
     def slice(self, index: int) -> slice:
@@ -90,6 +92,7 @@ class MuscleSystem:
             self.position_along.append(s / length)
         self.centres = [None] * len(placed)
         self.fibre_squeeze = [None] * len(placed)
+        self._sphincters = None
 
     def set_centres(self, centres: list[np.ndarray | None]) -> None:
         """Sphincter centres of contraction (head coordinates, rest pose), one per muscle or None."""
@@ -112,6 +115,33 @@ class MuscleSystem:
             lateral = np.clip(np.abs(local[..., 0]) / half_width, 0.0, 1.0) ** 2          # (R, C)
             self.fibre_squeeze.append((horizontal * factor, vertical * factor, sideways,
                                        spec.rounding[1] * factor * lateral))
+        self._prepare_sphincters()
+
+    def _prepare_sphincters(self) -> None:
+        """Per control point of every sphincter with a centre: its muscle, its fibre's squeeze factors and
+        protrusion weight (flat, so that :meth:`_contract_sphincters` treats all of them at once)."""
+        muscles = [i for i, spec in enumerate(self.specs) if spec.kind != "linear" and self.centres[i] is not None]
+        if not muscles:
+            self._sphincters = None
+            return
+        pieces = []
+        for index in muscles:
+            rows, cols = self.shapes[index]
+            horizontal, vertical, sideways, lateral = self.fibre_squeeze[index]
+            spec = self.specs[index]
+            grid = lambda values: np.broadcast_to(values, (rows, cols)).ravel()      # noqa: E731
+            inner = np.linspace(1.0, 0.0, cols) if cols > 1 else np.ones(1)
+            oris = spec.group == "oris"
+            pieces.append((np.arange(self.offsets[index], self.offsets[index + 1]), np.full(rows * cols, index),
+                           grid(horizontal), grid(vertical), grid(sideways), grid(lateral),
+                           grid(inner) if oris else np.zeros(rows * cols), np.full(rows * cols, oris),
+                           np.full(rows * cols, spec.protrusion[0] if oris else 0.0),
+                           np.full(rows * cols, spec.protrusion[1] if oris else 0.0)))
+        (points, muscle, horizontal, vertical, sideways, lateral, inner, oris, forward,
+         backward) = (np.concatenate(column) for column in zip(*pieces))
+        self._sphincters = (points, muscle, np.stack([horizontal, vertical, sideways, lateral]), inner,
+                            oris.astype(bool), forward, backward,
+                            np.array([self.centres[i] if i in muscles else np.zeros(3) for i in range(len(self.specs))]))
 
     def _prepare_cells(self) -> None:
         cells, owner = [], []
@@ -179,6 +209,44 @@ class MuscleSystem:
             full[np.flatnonzero(free)] = spread
             self.propagation.append((np.flatnonzero(fixed), full))
 
+    def _prepare_tables(self) -> None:
+        """Flat index tables that let :meth:`deform` treat every linear muscle, every connection group and
+        every muscle's bulge at once instead of muscle by muscle (built once; the layout never changes)."""
+        index = np.arange(len(self.rest))
+        row = np.concatenate([np.repeat(np.arange(r), c) for r, c in self.shapes])
+        col = np.concatenate([np.tile(np.arange(c), r) for r, c in self.shapes])
+        rows_of = np.array([r for r, _ in self.shapes])[self.muscle_of_point]
+        cols_of = np.array([c for _, c in self.shapes])[self.muscle_of_point]
+        # every column of every muscle: its points in row order, padded (arc length +inf past the end)
+        column = np.concatenate([[0], np.cumsum([c for _, c in self.shapes])])[self.muscle_of_point] + col
+        longest = int(max(r for r, _ in self.shapes))
+        grid = np.zeros((int(column.max()) + 1, longest), np.int64)
+        grid[column, row] = index
+        arclength = np.full(grid.shape, np.inf)
+        arclength[column, row] = np.concatenate([a.ravel() for a in self.arclength])
+        linear = np.array([spec.kind == "linear" for spec in self.specs])[self.muscle_of_point]
+        shortening = np.array([spec.max_shortening if spec.kind == "linear" else 0.0 for spec in self.specs])
+        self._linear = (np.flatnonzero(linear), column[linear], row[linear], rows_of[linear], arclength, grid,
+                        shortening)
+        # bulge: the fibre (column) of each point, and each fibre's segments (point -> next point in its column)
+        has_next = row < rows_of - 1
+        self._fibres = (column, np.flatnonzero(has_next), index[has_next] + cols_of[has_next], rows_of,
+                        np.concatenate([length for length in self.fibre_length]),
+                        np.array([spec.bulge for spec in self.specs])[self.muscle_of_point],
+                        np.concatenate([a.ravel() for a in self.position_along]), linear)
+        # connections: each group's points (no point is in two groups), then the propagation as one matrix
+        members = np.concatenate([pts for _, pts in self.groups]) if self.groups else np.zeros(0, np.int64)
+        group_of = np.concatenate([np.full(len(pts), g) for g, (_, pts) in enumerate(self.groups)]) \
+            if self.groups else np.zeros(0, np.int64)
+        spread = np.zeros((len(self.rest), len(self.rest)))
+        for muscle, prop in enumerate(self.propagation):
+            if prop is not None:
+                base = int(self.offsets[muscle])
+                fixed, full = prop
+                spread[base:base + full.shape[0], base + fixed] = full
+        self._groups = (members, group_of, len(self.groups), sparse.csr_matrix(spread),
+                        np.array([prop is not None for prop in self.propagation])[self.muscle_of_point])
+
     # -- per frame -------------------------------------------------------------------------------
     def deform(self, contraction: np.ndarray, protrusion: float, jaw: np.ndarray) -> MuscleState:
         """Deformed control points for muscle ``contraction`` (per muscle, [0, 1]), orbicularis oris
@@ -192,108 +260,109 @@ class MuscleSystem:
         normal[on_jaw] = self.normal[on_jaw] @ jaw[:3, :3].T
         points = carried.copy()
         own_length = np.ones(len(self.rest))        # fibre length ratio from the muscle's own contraction
-        for index, spec in enumerate(self.specs):
-            sl = self.slice(index)
-            rows, cols = self.shapes[index]
-            c = contraction[index]
-            if spec.kind == "linear":
-                if c <= 0:
-                    continue
-                rest = self.rest[sl].reshape(rows, cols, 3)
-                s = self.arclength[index]
-                target = s * (1.0 - c * spec.max_shortening)
-                # locate each target arc length on the rest polyline of its own column
-                seg = (s[None, :, :] <= target[:, None, :]).sum(axis=1) - 1           # (R, C)
-                seg = np.clip(seg, 0, rows - 2)
-                cols_idx = np.arange(cols)[None, :]
-                s0, s1 = s[seg, cols_idx], s[seg + 1, cols_idx]
-                t = np.clip((target - s0) / np.maximum(s1 - s0, 1e-12), 0.0, 1.0)[..., None]
-                moved = rest[seg, cols_idx] * (1 - t) + rest[seg + 1, cols_idx] * t
-                flat = moved.reshape(-1, 3)
-                jaw_rows = on_jaw[sl]
-                flat[jaw_rows] = _transform(jaw, flat[jaw_rows])
-                points[sl] = flat
-                own_length[sl] = 1.0 - c * spec.max_shortening
-            else:
-                centre = self.centres[index]
-                if centre is None:
-                    continue
-                squeeze = self.fibre_squeeze[index]
-                if spec.group == "oris":
-                    centre_now = 0.5 * (centre + _transform(jaw, centre[None])[0])
-                    axes = self.mouth_axes
-                else:
-                    centre_now = centre
-                    axes = np.eye(3)
-                local = (points[sl].reshape(rows, cols, 3) - centre_now) @ axes.T
-                rounding = c * max(protrusion, 0.0) if spec.group == "oris" else 0.0
-                sx = 1.0 - c * squeeze[0][None, :] - rounding * squeeze[2][None, :]
-                sz = (1.0 - c * squeeze[1][None, :]) * np.clip(1.0 - rounding * squeeze[3], 0.0, 1.0)
-                local[..., 0] *= sx
-                local[..., 2] *= sz
-                if spec.group == "oris" and protrusion != 0.0:
-                    travel = spec.protrusion[0] if protrusion > 0 else spec.protrusion[1]
-                    inner_weight = np.linspace(1.0, 0.0, cols) if cols > 1 else np.ones(1)
-                    local[..., 1] -= protrusion * travel * inner_weight[None, :]
-                points[sl] = (local @ axes + centre_now).reshape(-1, 3)
-                own_length[sl] = np.broadcast_to(0.5 * (sx + sz), (rows, cols)).ravel()
+        self._contract_linear(contraction, jaw, on_jaw, points, own_length)
+        self._contract_sphincters(contraction, protrusion, jaw, points, own_length)
         points = self._connect(points, contraction)
         thickness = self._bulge(points, contraction, own_length)
         surface = points + normal * (thickness - self.thickness_rest)[:, None]
         return MuscleState(surface, surface - carried, thickness)
 
+    def _contract_linear(self, contraction: np.ndarray, jaw: np.ndarray, on_jaw: np.ndarray, points: np.ndarray,
+                         own_length: np.ndarray) -> None:
+        """Step 1 for every linear muscle at once (module docstring): each control point moves to its
+        shortened arc length along the rest polyline of its own column (in place)."""
+        which, column, row, rows, arclength, grid, shortening = self._linear
+        ratio = 1.0 - contraction * shortening                        # per muscle
+        muscle = self.muscle_of_point[which]
+        active = contraction[muscle] > 0
+        which, column, row, rows, ratio = which[active], column[active], row[active], rows[active], ratio[muscle[active]]
+        if not len(which):
+            return
+        s = arclength[column]                                         # (K, longest), +inf past the end
+        target = s[np.arange(len(which)), row] * ratio
+        seg = np.clip((s <= target[:, None]).sum(axis=1) - 1, 0, rows - 2)
+        s0 = arclength[column, seg]
+        s1 = arclength[column, seg + 1]
+        t = np.clip((target - s0) / np.maximum(s1 - s0, 1e-12), 0.0, 1.0)[:, None]
+        moved = self.rest[grid[column, seg]] * (1 - t) + self.rest[grid[column, seg + 1]] * t
+        moving_jaw = on_jaw[which]
+        moved[moving_jaw] = _transform(jaw, moved[moving_jaw])
+        points[which] = moved
+        own_length[which] = ratio
+
+    def _contract_sphincters(self, contraction: np.ndarray, protrusion: float, jaw: np.ndarray, points: np.ndarray,
+                             own_length: np.ndarray) -> None:
+        """Step 1 for every sphincter at once (module docstring): towards its centre (the oris' centre
+        halfway carried by the jaw, in the mouth frame), squeezed per fibre, the oris with protrusion and
+        rounding (in place)."""
+        if self._sphincters is None:
+            return
+        which, muscle, squeeze, inner, oris, forward, backward, centres = self._sphincters
+        c = contraction[muscle]
+        centre = centres[muscle]
+        centre = np.where(oris[:, None], 0.5 * (centre + _transform(jaw, centre)), centre)
+        local = points[which] - centre
+        local[oris] = local[oris] @ self.mouth_axes.T
+        rounding = np.where(oris, c * max(protrusion, 0.0), 0.0)
+        sx = 1.0 - c * squeeze[0] - rounding * squeeze[2]
+        sz = (1.0 - c * squeeze[1]) * np.clip(1.0 - rounding * squeeze[3], 0.0, 1.0)
+        local[:, 0] *= sx
+        local[:, 2] *= sz
+        if protrusion != 0.0:
+            travel = forward if protrusion > 0 else backward
+            local[oris, 1] -= (protrusion * travel * inner)[oris]
+        local[oris] = local[oris] @ self.mouth_axes
+        points[which] = local + centre
+        own_length[which] = 0.5 * (sx + sz)
+
     def _connect(self, points: np.ndarray, contraction: np.ndarray) -> np.ndarray:
-        if not self.groups:
+        """Steps 3 and 4 (module docstring): each connection group's original distances to its weighted
+        centre restored, the corrections spread into the muscles (one sparse product for all of them)."""
+        members, group_of, count, spread, spreads = self._groups
+        if not count:
             return points
-        before = points.copy()
-        weight_all = 1.0 + CONNECTION_GAIN * contraction[self.muscle_of_point]
-        for _, pts in self.groups:
-            w = weight_all[pts][:, None]
-            centre_now = (w * before[pts]).sum(0) / w.sum()
-            centre_rest = (w * self.rest[pts]).sum(0) / w.sum()
-            offset_rest = self.rest[pts] - centre_rest
-            points[pts] = centre_now + offset_rest         # original distances to the centre restored
-        correction = points - before
-        out = before.copy()
-        for index, prop in enumerate(self.propagation):
-            if prop is None:
-                continue
-            fixed, full = prop
-            sl = self.slice(index)
-            local = correction[sl]
-            out[sl] += full @ local[fixed]
-        return out
+        weight = (1.0 + CONNECTION_GAIN * contraction[self.muscle_of_point[members]])[:, None]
+        total = np.zeros((count, 1))
+        np.add.at(total, group_of, weight)
+        centre_now, centre_rest = np.zeros((count, 3)), np.zeros((count, 3))
+        np.add.at(centre_now, group_of, weight * points[members])
+        np.add.at(centre_rest, group_of, weight * self.rest[members])
+        correction = np.zeros_like(points)
+        correction[members] = (centre_now / total)[group_of] + (self.rest[members] - (centre_rest / total)[group_of]) \
+            - points[members]
+        correction[~spreads] = 0.0              # a muscle without propagation keeps its points
+        return points + spread @ correction
 
     def _bulge(self, points: np.ndarray, contraction: np.ndarray, own_length: np.ndarray) -> np.ndarray:
-        """Thickness per point: thicker with contraction (linear: most mid-belly, sphincter: evenly),
-        thinner when stretched beyond the length its own contraction gave it (volume kept: t ~ 1/sqrt)."""
-        thickness = self.thickness_rest.copy()
-        for index, (sl, rows, cols, profile, rest_thickness) in enumerate(self._bulge_static()):
-            spec = self.specs[index]
-            pts = points[sl].reshape(rows, cols, 3)
-            seg = np.linalg.norm(np.diff(pts, axis=0), axis=-1)
-            length = np.maximum(np.add.reduce(seg, axis=0), 1e-9)
-            # the mean over rows, as ndarray.mean computes it (sum, then divide), without its overhead
-            expected = self.fibre_length[index] * (np.add.reduce(own_length[sl].reshape(rows, cols), axis=0) / rows)
-            stretch = np.minimum(np.maximum(length / np.maximum(expected, 1e-9), 0.25), 4.0)
-            grow = 1.0 + spec.bulge * contraction[index] * profile
-            thickness[sl] = (rest_thickness * grow / np.sqrt(stretch)[None, :]).ravel()
-        return thickness
+        """Thickness per point (step 5): thicker with contraction (linear: most mid-belly, sphincter:
+        evenly), thinner when stretched beyond the length its own contraction gave it (volume kept:
+        t ~ 1/sqrt), every fibre at once."""
+        column, start, following, rows, fibre_length, bulge, along, linear = self._fibres
+        fibres = int(column.max()) + 1
+        step = points[following] - points[start]
+        length = np.maximum(np.bincount(column[start], np.sqrt(np.einsum("ij,ij->i", step, step)), fibres), 1e-9)
+        expected = fibre_length * (np.bincount(column, own_length, fibres) / np.bincount(column, None, fibres))
+        stretch = np.minimum(np.maximum(length / np.maximum(expected, 1e-9), 0.25), 4.0)
+        profile = np.where(linear, np.sin(np.pi * along), 1.0)
+        grow = 1.0 + bulge * contraction[self.muscle_of_point] * profile
+        return self.thickness_rest * grow / np.sqrt(stretch)[column]
 
-    def _bulge_static(self) -> list:
-        """Per muscle: slice, rows, columns, bulge profile along the fibre (linear: sin, most mid-belly;
-        sphincter: even) and rest thickness grid -- fixed once the muscles are placed (built on first use)."""
-        static = getattr(self, "_bulge_cache", None)
-        if static is None:
-            static = []
-            for index, spec in enumerate(self.specs):
-                rows, cols = self.shapes[index]
-                sl = self.slice(index)
-                profile = (np.sin(np.pi * self.position_along[index]) if spec.kind == "linear"
-                           else np.ones((rows, cols)))
-                static.append((sl, rows, cols, profile, self.thickness_rest[sl].reshape(rows, cols).copy()))
-            self._bulge_cache = static
-        return static
+    def fibre_order(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The points of every fibre polyline of :meth:`fibres`, in its order, as one gather: ``(index, line
+        lengths, muscle of each line)`` (a closed fibre repeats its first point), built once."""
+        cached = getattr(self, "_fibre_order", None)
+        if cached is None:
+            index, lengths, muscle = [], [], []
+            for m in range(len(self.names)):
+                rows, cols = self.shapes[m]
+                grid = np.arange(self.offsets[m], self.offsets[m + 1]).reshape(rows, cols)
+                for c in range(cols):
+                    line = np.r_[grid[:, c], grid[:1, c]] if self.specs[m].closed else grid[:, c]
+                    index.append(line)
+                    lengths.append(len(line))
+                    muscle.append(m)
+            cached = self._fibre_order = (np.concatenate(index), np.array(lengths), np.array(muscle))
+        return cached
 
     def fibres(self, points: np.ndarray) -> list[tuple[str, np.ndarray]]:
         """Fibre polylines (muscle name, (R, 3)) of a deformed state, for visualisation."""

@@ -33,12 +33,12 @@ from dataclasses import asdict, dataclass, fields
 import numpy as np
 
 from ..core.errors import UserError
-from ..physics import (Attachments, BoneHalfSpaceGuard, LeapfrogIntegrator, SphereGuard, SpringNetwork,
-                       SpringSet)
+from ..physics import (Attachments, BoneHalfSpaceGuard, CapBulge, LeapfrogIntegrator, SphereGuard,
+                       SpringNetwork, SpringSet)
 from ..core import geometry
 from ..physics import kernel
 from .attachment import BoneSurface
-from .organs import cornea_bulge
+from .organs import CORNEA_BULGE, CORNEA_DEG
 from .template import HeadTemplate
 
 __all__ = ["SkinMaterial", "MATERIAL_RANGES", "FaceNetwork", "build_network"]
@@ -213,14 +213,13 @@ def _teeth_guard(template: HeadTemplate) -> BoneHalfSpaceGuard:
     return guard
 
 
-def _cornea(eye_radius: float, sag: np.ndarray | float = 0.0):
+def _cornea(eye_radius: float, sag: np.ndarray | float = 0.0) -> CapBulge:
     """The cornea's bulge (m) in unit directions (3, K) from the eye centre, looking ahead (-Y): what a
-    closing lid must pass over (:func:`.organs.cornea_bulge`), plus each guarded node's ``sag`` (the
-    depth a skin triangle's flat middle sinks below its corners on the sphere), so that a coarse lid's
-    triangles, not only its nodes, stay in front of the cornea."""
-    def extra(unit: np.ndarray) -> np.ndarray:
-        return eye_radius * cornea_bulge(np.degrees(np.arccos(np.clip(-unit[1], -1.0, 1.0)))) + sag
-    return extra
+    closing lid must pass over (:func:`.organs.cornea_bulge`: ``CORNEA_BULGE`` of the radius, over
+    ``CORNEA_DEG``), plus each guarded node's ``sag`` (the depth a skin triangle's flat middle sinks below
+    its corners on the sphere), so that a coarse lid's triangles, not only its nodes, stay in front of the
+    cornea."""
+    return CapBulge(eye_radius, CORNEA_BULGE, CORNEA_DEG, sag)
 
 
 def _longest_edge(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:

@@ -38,6 +38,8 @@ from .template import HeadTemplate, build_template, default_inputs
 __all__ = ["FaceRig", "build_default_rig", "WRINKLE_DRIVERS", "RESOLUTIONS"]
 
 GUARD_EVERY = 4          # the skull/eye guard runs after every 4th substep and after the last one
+_IDENTITY = np.eye(4)
+_IDENTITY.flags.writeable = False
 RESOLUTIONS = ("default", "10k", "coarse")
 
 #: 3.1.2 "Expressive Wrinkles": region -> (muscle, weight); strength = clamp(sum of weight * contraction)
@@ -71,7 +73,7 @@ class FaceRig:
         kinematic = template.skin.kinematic
         self._driven = kinematic is not None and bool(np.any(kinematic))
         self._cache_key = None
-        self._targets = None
+        self._targets = self._frame_inputs = self._rigid = self._jaw = None
         self.time = 0.0
         self.frame_substeps = 0
         self._lip_midline: tuple[int, int] | None = None
@@ -106,6 +108,22 @@ class FaceRig:
         """Controls at their defaults, skin at rest."""
         self.reset_controls()
         self.reset_state()
+
+    def worker_copy(self) -> "FaceRig":
+        """A rig that settles exactly as this one does (same template and material, same simulation
+        backend) with a simulation state of its own: :mod:`..anim.baking` settles shapes on it from
+        another thread. Static shapes start from rest, so nothing else of this rig's state matters."""
+        copy = type(self)._copy_of(self)
+        copy.identity = self.identity
+        copy.face.integrator.backend = self.face.integrator.backend
+        for mine, theirs in zip((copy.face.bone_guard, copy.face.teeth_guard, *copy.face.eye_guards),
+                                (self.face.bone_guard, self.face.teeth_guard, *self.face.eye_guards)):
+            mine.backend = theirs.backend
+        return copy
+
+    @classmethod
+    def _copy_of(cls, rig: "FaceRig") -> "FaceRig":
+        return cls(rig.template, rig.material)
 
     def pose(self) -> Pose:
         """The current pose: skin positions and the rigid parts' transforms (copies)."""
@@ -156,14 +174,31 @@ class FaceRig:
     # -- per frame -------------------------------------------------------------------------------
     def jaw_transform(self) -> np.ndarray:
         """The jaw's 4x4 pose (head space) for the current controls (3.1.1: four degrees of freedom)."""
-        c, b = self.controls, self.template.bones
-        return kinematics.jaw_matrix(b.tmj_pivot, b.tmj_axis, c["jaw_open"], c["jaw_yaw"], c["jaw_forward"],
-                                     c["jaw_drop"], glide=b.jaw_glide)
+        self._sync_controls()
+        if self._jaw is None:
+            c, b = self.controls, self.template.bones
+            self._jaw = kinematics.jaw_matrix(b.tmj_pivot, b.tmj_axis, c["jaw_open"], c["jaw_yaw"],
+                                              c["jaw_forward"], c["jaw_drop"], glide=b.jaw_glide)
+        return self._jaw.copy()
+
+    def _sync_controls(self) -> None:
+        """Drop what was computed for other control values (targets, jaw, part transforms): every per-frame
+        quantity that depends on the controls only is computed once per control state."""
+        key = tuple(sorted(self.controls.items()))
+        if key != self._cache_key:
+            self._cache_key = key
+            self._targets = self._frame_inputs = self._rigid = self._jaw = None
 
     def rigid_transforms(self) -> dict[str, np.ndarray]:
-        """4x4 matrices (head coordinates, applied to the rest meshes) for the current controls."""
+        """4x4 matrices (head coordinates, applied to the rest meshes) for the current controls (copies of
+        the ones computed once per control state)."""
+        self._sync_controls()
+        if self._rigid is None:
+            self._rigid = self._rigid_transforms(self.jaw_transform())
+        return {name: matrix.copy() for name, matrix in self._rigid.items()}
+
+    def _rigid_transforms(self, jaw: np.ndarray) -> dict[str, np.ndarray]:
         c, organs = self.controls, self.template.organs
-        jaw = self.jaw_transform()
         out = {"jaw": jaw, "teeth_upper": np.eye(4), "teeth_lower": jaw, "skull": np.eye(4)}
         for side, centre in organs.eye_centres.items():
             yaw, pitch = self.eye_gaze(side)
@@ -186,35 +221,46 @@ class FaceRig:
     def attachment_targets(self) -> np.ndarray:
         """Where every skin node's attachment pair wants it (N, 3): bone-carried rest position + lid
         rotation + displacement of the muscles it is attached to. Cached per control state."""
-        key = tuple(sorted(self.controls.items()))
-        if key == self._cache_key:
+        self._sync_controls()
+        if self._targets is not None:
             return self._targets
         t, rest = self.template, self._rest
         jaw = self.jaw_transform()
         target = t.attachment.carried(rest, jaw)
         for side, lid in t.organs.lids.items():
-            rotated = lid.rotate(rest, self.controls[f"eyelid_close_{side}"], self.eye_gaze(side)[1],
-                                 self.controls.get(f"eyelid_raise_{side}", 0.0))
-            target[lid.index] += rotated[lid.index] - rest[lid.index]
+            lid_rest = rest[lid.index]
+            rotated = lid.rotate_lid(lid_rest, self.controls[f"eyelid_close_{side}"], self.eye_gaze(side)[1],
+                                     self.controls.get(f"eyelid_raise_{side}", 0.0))
+            target[lid.index] += rotated - lid_rest
         state = t.muscles.deform(self._contraction_vector(), self.controls["orbicularis_oris_protrusion"], jaw)
         self._muscle_state = state
         target += t.attachment.muscle_displacement(state.displacement)
-        self._cache_key, self._targets = key, target
+        self._targets = target
         self._jaw_now = jaw
         return target
 
+    def _frame_targets(self):
+        """``(anchor, mirror, driven)`` (3, N) arrays the integrator moves the attachments and kinematic
+        nodes to over a frame, for the current controls (cached with :meth:`attachment_targets`: a settle
+        or a held pose does not rebuild them every frame)."""
+        target = self.attachment_targets()
+        if self._frame_inputs is None:
+            offset = self.template.attachment.posed_offsets(self.face.anchor_offset, self._jaw_now)
+            self._frame_inputs = (np.ascontiguousarray((target + offset).T),
+                                  np.ascontiguousarray((target - offset).T),
+                                  np.ascontiguousarray(target.T) if self._driven else None)
+        return self._frame_inputs
+
     def _advance(self, dt: float) -> None:
         """Simulate one frame of ``dt`` seconds (guards slide with the jaw during the frame)."""
-        target = self.attachment_targets()
+        anchor, mirror, driven = self._frame_targets()
         face = self.face
-        jaw = self._jaw_now
-        offset = self.template.attachment.posed_offsets(face.anchor_offset, jaw)
+        bones = [_IDENTITY, self._jaw_now]
         for guard in (face.bone_guard, face.teeth_guard):
             guard.begin_frame()                        # planes slide with the jaw during the frame
-            guard.set_bone_transforms([np.eye(4), jaw])
+            guard.set_bone_transforms(bones)
             guard.refresh(face.network.positions)
-        self.frame_substeps = face.integrator.advance(dt, anchor=(target + offset).T, mirror=(target - offset).T,
-                                                      driven=target.T if self._driven else None,
+        self.frame_substeps = face.integrator.advance(dt, anchor=anchor, mirror=mirror, driven=driven,
                                                       constraint=face.constrain, constraint_every=GUARD_EVERY)
         self.time += dt
 
@@ -257,6 +303,18 @@ class FaceRig:
         points = self._muscle_state.points
         return [(name, line.astype(np.float32), self.controls[name])
                 for name, line in self.template.muscles.fibres(points)]
+
+    def muscle_display(self) -> tuple[np.ndarray, np.ndarray]:
+        """What :meth:`muscle_fibres` shows, as two flat arrays for a display that draws every fibre as one
+        mesh: all fibre points (K, 3) float32 in :meth:`muscle_fibres`' order and each point's contraction
+        (K,) float32 (one gather instead of a polyline per fibre: the live preview's every tick)."""
+        self.attachment_targets()
+        index, lengths, muscle = self.template.muscles.fibre_order()
+        values = np.array([self.controls[name] for name in self.template.muscles.names], np.float32)
+        return self._display_points(self._muscle_state.points[index]), np.repeat(values[muscle], lengths)
+
+    def _display_points(self, points: np.ndarray) -> np.ndarray:
+        return points.astype(np.float32)
 
     def wrinkles(self) -> dict[str, float]:
         """Expressive-wrinkle strengths per region in [0, 1] (3.1.2 "Expressive Wrinkles"), by the same

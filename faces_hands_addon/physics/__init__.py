@@ -6,10 +6,10 @@
 ``collision``  keeps skin nodes outside the bone surface (tangent half-spaces that move with the bones)
 ``rbf``        thin-plate style radial-basis warp with an affine part
 """
-from .collision import BoneHalfSpaceGuard, SphereGuard
+from .collision import BoneHalfSpaceGuard, CapBulge, SphereGuard
 from .integrator import LeapfrogIntegrator, gershgorin_eigen_bound, stable_time_step
 from .rbf import RBFWarp
 from .springs import Attachments, SpringNetwork, SpringSet, biphasic_force
 
-__all__ = ["Attachments", "BoneHalfSpaceGuard", "LeapfrogIntegrator", "RBFWarp", "SpringNetwork",
+__all__ = ["Attachments", "BoneHalfSpaceGuard", "CapBulge", "LeapfrogIntegrator", "RBFWarp", "SpringNetwork",
            "SphereGuard", "SpringSet", "biphasic_force", "gershgorin_eigen_bound", "stable_time_step"]

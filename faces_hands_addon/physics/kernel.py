@@ -36,7 +36,7 @@ from pathlib import Path
 
 __all__ = ["set_cache_folder", "cache_folder", "available", "substep_kernel", "guard_kernels",
            "compile_seconds", "ENV_VARIABLE", "AUTO_MIN_NODES", "AUTO_MIN_NODE_FRAMES", "pays_for", "loaded",
-           "BACKENDS", "expect_frames", "set_interactive"]
+           "BACKENDS", "expect_frames", "set_interactive", "compiled"]
 
 #: environment variable: "numpy" forces the reference path, "numba" the kernel for every network; unset:
 #: the kernel for networks of at least AUTO_MIN_NODES nodes
@@ -47,6 +47,7 @@ AUTO_MIN_NODE_FRAMES = 1_500_000
 BACKENDS = ("auto", "numba", "numpy")
 
 _HINTS = {"frames": 0, "interactive": False}
+_COMPILED: dict = {}
 _STATE = {"folder": None, "kernel": None, "half_space": None, "sphere": None, "tried": False,
           "compile_s": None, "error": None}
 
@@ -163,8 +164,11 @@ def _half_space(x, v, nodes, point, normal, start_point, start_normal, interpola
                 v[2, k] -= nz * inward
 
 
-def _sphere(x, nodes, centre, radius):  # pragma: no cover - compiled
-    """:class:`~.collision.SphereGuard` ``__call__``: nodes pushed out to ``radius`` from ``centre``."""
+def _sphere(x, nodes, centre, radius, bulge, scale, peak, cap_deg, sag, slacken, rest, slack,
+            fade):  # pragma: no cover - compiled
+    """:class:`~.collision.SphereGuard` ``__call__``: nodes pushed out to ``radius`` from ``centre``, plus
+    the :class:`~.collision.CapBulge` (``scale``, ``peak``, ``cap_deg``, ``sag``) when ``bulge``, less
+    the ``slack`` of nodes near their ``rest`` place when ``slacken`` (the numpy path's arithmetic)."""
     for j in range(nodes.shape[0]):
         k = nodes[j]
         dx = x[0, k] - centre[0]
@@ -173,11 +177,25 @@ def _sphere(x, nodes, centre, radius):  # pragma: no cover - compiled
         dist = math.sqrt(dx * dx + dy * dy + dz * dz)
         if dist < 1e-12:
             dist = 1e-12
-        scale = radius / dist
-        if scale > 1.0:
-            x[0, k] = centre[0] + dx * scale
-            x[1, k] = centre[1] + dy * scale
-            x[2, k] = centre[2] + dz * scale
+        wanted = radius
+        if bulge:
+            ahead = -(dy / dist)
+            ahead = -1.0 if ahead < -1.0 else (1.0 if ahead > 1.0 else ahead)
+            angle = math.degrees(math.acos(ahead))
+            cap = peak * math.cos(math.radians(angle) * 90 / cap_deg) ** 2 if angle < cap_deg else 0.0
+            wanted = wanted + (scale * cap + sag[j])
+        if slacken:
+            mx = x[0, k] - rest[0, j]
+            my = x[1, k] - rest[1, j]
+            mz = x[2, k] - rest[2, j]
+            near = 1.0 - math.sqrt(mx * mx + my * my + mz * mz) / fade
+            near = 0.0 if near < 0.0 else (1.0 if near > 1.0 else near)
+            wanted = wanted - slack[j] * near
+        factor = wanted / dist
+        if factor > 1.0:
+            x[0, k] = centre[0] + dx * factor
+            x[1, k] = centre[1] + dy * factor
+            x[2, k] = centre[2] + dz * factor
 
 
 def expect_frames(frames: int) -> None:
@@ -245,6 +263,27 @@ def guard_kernels():
     return _STATE["half_space"], _STATE["sphere"]
 
 
+def compiled(function, *helpers):
+    """``function`` compiled as the substep kernel is (numba, ``nogil``, cached in the same folder), once
+    per process, or ``None`` where the numpy path must run (numba missing or switched off). For other
+    engine loops that earn a compiled version (e.g. the weight fit of :mod:`..anim.weights`). ``helpers``:
+    module-level functions ``function`` calls, compiled first and called compiled."""
+    if substep_kernel() is None:
+        return None
+    key = (function.__module__, function.__qualname__)
+    if key not in _COMPILED:
+        import types
+        import numba
+        names = {helper.__name__: compiled(helper) for helper in helpers}
+        if names:
+            original = function
+            function = types.FunctionType(original.__code__, {**original.__globals__, **names}, original.__name__,
+                                          original.__defaults__, original.__closure__)
+            function.__qualname__, function.__module__ = original.__qualname__, original.__module__
+        _COMPILED[key] = numba.njit(cache=_STATE["folder"] is not None, nogil=True, boundscheck=False)(function)
+    return _COMPILED[key]
+
+
 def _warm_up(compiled) -> None:
     """Compile (or load from the cache) for the argument types the integrator passes."""
     import numpy as np
@@ -258,4 +297,5 @@ def _warm_up(compiled) -> None:
     half_space, sphere = _STATE["half_space"], _STATE["sphere"]
     half_space(f3.copy(), f3.copy(), index, f3[:, :1].copy(), f3[:, :1] + 1.0, f3[:, :1].copy(),
                f3[:, :1] + 1.0, True, 0.5, one[:1])
-    sphere(f3.copy(), index, np.zeros(3), 0.01)
+    sphere(f3.copy(), index, np.zeros(3), 0.01, True, 0.01, 0.03, 30.0, one[:1], True, f3[:, :1].copy(), one[:1],
+           0.001)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import itertools
 import json
+from concurrent.futures import ThreadPoolExecutor
 
 import bpy
 import numpy as np
@@ -177,6 +178,11 @@ class WeightsBakeJob(Job):
                                                 lead=PHYSICS_LEAD_S / self.dt)
         self.solver = self.frames = None
         self.weights, self.residual = [], []
+        # the fit of a block runs on a second thread while the next block is simulated (the compiled fit
+        # releases the GIL); one worker, so the blocks are fitted in order (the fit starts each frame where
+        # the last one ended: same order, same bytes)
+        self._fitter = ThreadPoolExecutor(1, thread_name_prefix="fh-fit")
+        self._fits, self._submitted = [], 0
 
     def _local_stack(self, pose) -> np.ndarray:
         skin = pose.positions["skin"].astype(np.float64) @ self.to_local[:3, :3].T + self.to_local[:3, 3]
@@ -202,13 +208,22 @@ class WeightsBakeJob(Job):
         block = [self._local_stack(shape.pose) - self.rest for shape in
                  (next(self.frames, None) for _ in range(FRAME_BLOCK)) if shape is not None]
         if block:
-            done = sum(len(w) for w in self.weights)
-            rows = slice(done, done + len(block))
-            w, r = self.solver.solve_many(np.stack(block), self.prior[rows], self.closed[rows])
+            rows = slice(self._submitted, self._submitted + len(block))
+            self._fits.append(self._fitter.submit(self.solver.solve_many, np.stack(block), self.prior[rows],
+                                                  self.closed[rows]))
+            self._submitted += len(block)
+        finished = not block or self._submitted >= len(self.table)
+        while self._fits and (finished or self._fits[0].done()):
+            w, r = self._fits.pop(0).result()
             self.weights.append(w)
             self.residual.append(r)
         done = sum(len(w) for w in self.weights)
-        return 1.0 if done >= len(self.table) or not block else min((len(self.shapes) + done) / self.total, 0.999)
+        return 1.0 if finished else min((len(self.shapes) + done) / self.total, 0.999)
+
+    def cleanup(self) -> None:
+        """Stop the fitting thread (after the commit, or when cancelled: a block under way finishes)."""
+        self._fitter.shutdown(wait=True, cancel_futures=True)
+        super().cleanup()
 
     def fit(self) -> weights.WeightFit:
         return weights.WeightFit(self.solver.names, np.concatenate(self.weights), np.concatenate(self.residual))

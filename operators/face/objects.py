@@ -167,17 +167,14 @@ def update_muscle_display(obj, rig) -> None:
     part = parts(obj).get("muscles")
     if part is None:
         return
-    fibres = rig.muscle_fibres()
-    lines = [line for _name, line, _value in fibres]
-    if not lines or sum(len(line) for line in lines) != len(part.data.vertices):
+    points, contraction = rig.muscle_display()
+    if not len(points) or len(points) != len(part.data.vertices):
         return
-    part.data.vertices.foreach_set("co", np.concatenate(lines).astype(np.float32, copy=False).ravel())
-    values = np.array([value for _name, _line, value in fibres], np.float32)
+    part.data.vertices.foreach_set("co", points.ravel())
     key = (part.session_uid, part.data.as_pointer())
-    if not np.array_equal(_SHOWN_CONTRACTION.get(key), values):     # colours only when a muscle changed
-        contraction = np.repeat(values, [len(line) for line in lines])
+    if not np.array_equal(_SHOWN_CONTRACTION.get(key), contraction):     # colours only when a muscle changed
         part.data.color_attributes["contraction"].data.foreach_set("color", _contraction_colours(contraction).ravel())
-        _SHOWN_CONTRACTION[key] = values
+        _SHOWN_CONTRACTION[key] = contraction
     part.data.update()
 
 

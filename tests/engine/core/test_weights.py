@@ -1,6 +1,8 @@
 """Engine-ready weights (anim.weights): bounded least squares checked against an independent solver."""
 from __future__ import annotations
 
+import importlib.util
+
 import numpy as np
 import pytest
 from scipy.optimize import lsq_linear
@@ -85,8 +87,76 @@ def test_the_frame_fit_runs_on_one_blas_thread_and_restores_it(monkeypatch):
 
     before = [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"]
     monkeypatch.setattr(weights_module, "bounded_nnls", spy)
+    monkeypatch.setenv("FH_PHYSICS_KERNEL", "numpy")     # the reference path (the compiled one: next test)
     rng = np.random.default_rng(3)
     basis = weights_module.TargetBasis(("a", "b", "c"), rng.standard_normal((3, 40, 3)))
     weights_module.WeightSolver(basis).solve_many(rng.standard_normal((4, 40, 3)))
     assert before and seen == [1] * 4
     assert [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"] == before
+
+
+def _box_problems(rng, frames, rows, cols, prior=None):
+    """A take-like run of bounded least-squares problems (each frame near the last), optionally with the
+    prior rows the weights bake stacks below the targets."""
+    matrix = rng.normal(size=(rows, cols))
+    if prior is not None:
+        matrix = np.vstack([matrix, prior * np.eye(cols)])
+    drift = np.cumsum(rng.normal(size=(frames, len(matrix))) * 0.2, axis=0) + rng.normal(size=len(matrix)) * 2
+    return np.ascontiguousarray(matrix), np.ascontiguousarray(drift)
+
+
+@pytest.mark.skipif(importlib.util.find_spec("numba") is None, reason="numba is not importable here")
+def test_compiled_box_solver_finds_the_reference_minimum_and_leaves_it_the_hard_frames(monkeypatch):
+    """The weights bake's compiled active-set loops (``_box_normal`` with prior rows, ``_box_qr`` without;
+    warm-started frame to frame) reach the minimum :func:`bounded_nnls` (the reference) reaches: the same
+    cost, and the same weights wherever the problem is well conditioned (here: with prior rows); frames they
+    cannot settle go to the reference."""
+    from faces_hands_addon.anim import weights as weights_module
+    from faces_hands_addon.physics import kernel
+    monkeypatch.delenv("FH_PHYSICS_KERNEL", raising=False)
+    normal = kernel.compiled(weights_module._box_normal, weights_module._sets_settled)
+    qr = kernel.compiled(weights_module._box_qr, weights_module._sets_settled)
+    assert normal is not None and qr is not None
+    rng = np.random.default_rng(21)
+    for prior, tolerance in ((None, None), (0.5, 1e-9)):
+        for _ in range(6):
+            matrix, rhs = _box_problems(rng, 40, int(rng.integers(10, 60)), int(rng.integers(3, 30)), prior)
+            count = matrix.shape[1]
+            low, high = np.ones(count, bool), np.zeros(count, bool)
+            weights, solved = np.zeros((len(rhs), count)), np.zeros(len(rhs), bool)
+            hessian, targets = np.ascontiguousarray(matrix.T @ matrix), np.ascontiguousarray(rhs @ matrix)
+            tolerances = 1e-9 * np.maximum(1.0, np.abs(targets).max(axis=1))
+            if prior is not None:
+                normal(hessian, targets, tolerances, low, high, 30, weights, solved)
+            else:
+                qr(matrix, rhs, hessian, targets, tolerances, low, high, 30, weights, solved)
+            assert solved.mean() > 0.9
+            for row, ours in zip(rhs[solved], weights[solved]):
+                reference = bounded_nnls(matrix, row)
+                cost = lambda w: float(np.sum((matrix @ w - row) ** 2))  # noqa: E731
+                assert ours.min() >= 0 and ours.max() <= 1
+                assert cost(ours) <= cost(reference) + 1e-9 * max(1.0, cost(reference))
+                if tolerance is not None:
+                    assert np.abs(ours - reference).max() < tolerance
+
+
+@pytest.mark.skipif(importlib.util.find_spec("numba") is None, reason="numba is not importable here")
+def test_weight_solver_agrees_with_and_without_the_compiled_loop(monkeypatch):
+    """Whole ``WeightSolver.solve_many`` (primary targets held near a prior, then correctives): the compiled
+    path gives the reference's weights and residuals."""
+    from faces_hands_addon.physics import kernel
+    rng = np.random.default_rng(5)
+    basis, extra = _basis(seed=1, targets=10, vertices=80), _basis(seed=2, targets=6, vertices=80)
+    truth = rng.uniform(-0.2, 1.2, size=(30, 10))
+    frames = np.einsum("ft,tvk->fvk", truth, basis.displacements) + rng.normal(size=(30, 80, 3)) * 0.002
+    prior = np.clip(truth + rng.normal(size=truth.shape) * 0.1, 0, 1)
+    exact = np.arange(30) % 7 == 0
+    results = []
+    for choice in ("numpy", "numba"):
+        monkeypatch.setenv("FH_PHYSICS_KERNEL", choice)
+        kernel.substep_kernel()
+        results.append(WeightSolver(basis, extra).solve_many(frames, prior, exact))
+    assert kernel.loaded()
+    assert np.abs(results[0][0][:, :10] - results[1][0][:, :10]).max() < 1e-8
+    assert np.abs(results[0][1] - results[1][1]).max() < 1e-9
+    assert np.array_equal(results[1][0][exact, :10], np.clip(prior[exact], 0, 1))

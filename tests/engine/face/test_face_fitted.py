@@ -236,6 +236,7 @@ def test_parts_bones_transforms_and_fibres_are_in_mesh_coordinates(mask, rig):
     fibres = rig.muscle_fibres()
     points = np.vstack([line for _, line, _ in fibres])
     assert np.abs(points - mask.truth.mean(axis=0)).max() < mask.face_width
+    assert np.abs(rig.muscle_display()[0] - points).max() < 1e-6          # the live display too (float32 rounding)
     masks = rig.wrinkle_masks()
     assert masks["forehead"].shape == (len(mask.vertices),) and masks["forehead"].max() > 0.5
 

@@ -120,3 +120,87 @@ def test_wrinkle_strengths_follow_their_muscles(rig):
     fibres = rig.muscle_fibres()
     assert {name for name, _, _ in fibres} == set(rig.template.muscles.names)
     assert all(line.shape[1] == 3 and line.dtype == np.float32 for _, line, _ in fibres)
+    # the live display's flat arrays are the fibres, point for point, with each fibre's contraction
+    points, contraction = rig.muscle_display()
+    assert np.array_equal(points, np.concatenate([line for _, line, _ in fibres]))
+    assert np.array_equal(contraction, np.concatenate([np.full(len(line), value, np.float32)
+                                                       for _, line, value in fibres]))
+
+
+def _reference_deform(m, contraction, protrusion, jaw):
+    """The muscle deformation muscle by muscle, written as the thesis lists the steps (3.1.2 "Muscle
+    Deformation": contraction, jaw, connections, stretch, bulge): the reference the whole-array version
+    of ``MuscleSystem.deform`` must agree with."""
+    def carry(points):
+        return points @ jaw[:3, :3].T + jaw[:3, 3]
+    contraction, protrusion = np.clip(contraction, 0.0, 1.0), float(np.clip(protrusion, -1.0, 1.0))
+    on_jaw = m.bone == 1
+    carried = m.rest.copy()
+    carried[on_jaw] = carry(m.rest[on_jaw])
+    normal = m.normal.copy()
+    normal[on_jaw] = m.normal[on_jaw] @ jaw[:3, :3].T
+    points, own = carried.copy(), np.ones(len(m.rest))
+    for index, spec in enumerate(m.specs):
+        sl, (rows, cols), c = m.slice(index), m.shapes[index], contraction[index]
+        if spec.kind == "linear" and c > 0:
+            s, rest = m.arclength[index], m.rest[sl].reshape(rows, cols, 3)
+            target = s * (1.0 - c * spec.max_shortening)
+            seg = np.clip((s[None, :, :] <= target[:, None, :]).sum(axis=1) - 1, 0, rows - 2)
+            col = np.arange(cols)[None, :]
+            t = np.clip((target - s[seg, col]) / np.maximum(s[seg + 1, col] - s[seg, col], 1e-12), 0, 1)[..., None]
+            flat = (rest[seg, col] * (1 - t) + rest[seg + 1, col] * t).reshape(-1, 3)
+            flat[on_jaw[sl]] = carry(flat[on_jaw[sl]])
+            points[sl], own[sl] = flat, 1.0 - c * spec.max_shortening
+        elif spec.kind != "linear" and m.centres[index] is not None:
+            oris = spec.group == "oris"
+            centre = 0.5 * (m.centres[index] + carry(m.centres[index][None])[0]) if oris else m.centres[index]
+            axes = m.mouth_axes if oris else np.eye(3)
+            local = (points[sl].reshape(rows, cols, 3) - centre) @ axes.T
+            squeeze, rounding = m.fibre_squeeze[index], c * max(protrusion, 0.0) if oris else 0.0
+            sx = 1.0 - c * squeeze[0][None, :] - rounding * squeeze[2][None, :]
+            sz = (1.0 - c * squeeze[1][None, :]) * np.clip(1.0 - rounding * squeeze[3], 0.0, 1.0)
+            local[..., 0] *= sx
+            local[..., 2] *= sz
+            if oris and protrusion != 0.0:
+                travel = spec.protrusion[0] if protrusion > 0 else spec.protrusion[1]
+                local[..., 1] -= protrusion * travel * np.linspace(1.0, 0.0, cols)[None, :]
+            points[sl] = (local @ axes + centre).reshape(-1, 3)
+            own[sl] = np.broadcast_to(0.5 * (sx + sz), (rows, cols)).ravel()
+    before, moved = points.copy(), points.copy()
+    weight = 1.0 + 8.0 * contraction[m.muscle_of_point]
+    for _, pts in m.groups:
+        w = weight[pts][:, None]
+        moved[pts] = (w * before[pts]).sum(0) / w.sum() + m.rest[pts] - (w * m.rest[pts]).sum(0) / w.sum()
+    points = before.copy()
+    for index, prop in enumerate(m.propagation):
+        if prop is not None:
+            points[m.slice(index)] += prop[1] @ (moved - before)[m.slice(index)][prop[0]]
+    thickness = m.thickness_rest.copy()
+    for index, spec in enumerate(m.specs):
+        sl, (rows, cols) = m.slice(index), m.shapes[index]
+        length = np.linalg.norm(np.diff(points[sl].reshape(rows, cols, 3), axis=0), axis=-1).sum(0)
+        expected = m.fibre_length[index] * own[sl].reshape(rows, cols).mean(0)
+        stretch = np.clip(np.maximum(length, 1e-9) / np.maximum(expected, 1e-9), 0.25, 4.0)
+        profile = np.sin(np.pi * m.position_along[index]) if spec.kind == "linear" else 1.0
+        grow = 1.0 + spec.bulge * contraction[index] * profile
+        thickness[sl] = (m.thickness_rest[sl].reshape(rows, cols) * grow / np.sqrt(stretch)).ravel()
+    return points + normal * (thickness - m.thickness_rest)[:, None], thickness
+
+
+def test_whole_array_deformation_matches_the_muscle_by_muscle_reference(rig):
+    """``MuscleSystem.deform`` treats all linear muscles, connections and bulges at once (no Python loop
+    over muscles); it computes what the step-by-step reference computes, to rounding."""
+    m = rig.template.muscles
+    rng = np.random.default_rng(11)
+    for trial in range(40):
+        contraction = rng.uniform(-0.2, 1.2, len(m.names)) * (rng.uniform(size=len(m.names)) < 0.6)
+        protrusion = rng.uniform(-1.2, 1.2) if trial % 3 else 0.0
+        rig.reset_controls()
+        rig.set_controls({"jaw_open": rng.uniform(0, 1), "jaw_yaw": rng.uniform(-1, 1)})
+        jaw = rig.jaw_transform()
+        state = m.deform(contraction, protrusion, jaw)
+        surface, thickness = _reference_deform(m, contraction, protrusion, jaw)
+        assert np.abs(state.points - surface).max() < 1e-12
+        assert np.abs(state.thickness - thickness).max() < 1e-12
+        if trial == 1:
+            assert np.abs(state.points - m.rest).max() > 1e-3          # the muscles did move

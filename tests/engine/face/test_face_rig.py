@@ -96,6 +96,21 @@ def test_same_inputs_give_byte_identical_results(rig):
     assert run() == run()
 
 
+def test_a_node_on_a_canthus_belongs_to_the_lower_lid_whatever_the_last_bit():
+    """Where both lid margins meet, a node's elevation ties the margins' midpoint; numpy's vectorised
+    trigonometry can put that tie a bit either side depending on where the array lies in memory, and the
+    10k head's corner node changed lid from one run to the next (a different face for the same input)."""
+    from faces_hands_addon.face.kinematics import LidRig
+    centre = np.zeros(3)
+    upper = np.array([[-0.015, -0.010, 0.0], [0.0, -0.011, 0.004], [0.015, -0.010, 0.0]])
+    lower = np.array([[-0.015, -0.010, 0.0], [0.0, -0.011, -0.003], [0.015, -0.010, 0.0]])
+    corner = upper[2] + [0.001, 0.0, 0.0]                          # beyond the canthus: elevation 0
+    nudged = corner + [0.0, 0.0, 1e-15]                            # the tie, one rounding above
+    lid = LidRig(centre, np.stack([corner, nudged]), upper, lower)
+    assert not lid.is_upper.any()
+    assert lid.weight.min() > 0                                    # both are lid nodes
+
+
 def test_save_and_load_round_trip_continues_identically(rig, tmp_path):
     face = FaceRig(rig.template)
     face.set_controls({"depressor_anguli_oris_R": 0.7, "eyelid_close_L": 0.4})

@@ -49,3 +49,27 @@ def test_another_rig_or_other_values_miss_and_a_corrupt_entry_is_recomputed(rig,
     nothing = ShapeCache(tmp_path / "other")
     next(baking.expression_shapes(unnamed, {"open": {"jaw_open": 0.6}}, cache=nothing))
     assert not (tmp_path / "other").exists()
+
+
+def test_shapes_settled_on_two_threads_are_the_ones_settled_one_by_one(rig, tmp_path, monkeypatch):
+    """baking settles static shapes on worker copies of the rig, two at a time; each is byte-identical to
+    the shape the rig settles alone, comes out in order, is cached as before, and the rig itself is left
+    alone (its own simulation state is not touched by the workers)."""
+    expressions = dict(EXPRESSIONS, blink={"eyelid_close_L": 1.0, "eyelid_close_R": 1.0},
+                       pucker={"orbicularis_oris_upper": 0.7, "orbicularis_oris_protrusion": 0.8},
+                       brows={"frontalis_inner_L": 1.0, "frontalis_outer_R": 0.6})
+    monkeypatch.setattr(baking, "SETTLE_THREADS", 1)
+    alone = _arrays(baking.expression_shapes(rig, expressions)) + _arrays(baking.basis_shapes(rig, 0.3))
+    monkeypatch.setattr(baking, "SETTLE_THREADS", 2)
+    rig.set_controls({"jaw_open": 0.3})
+    rig.step_frame(1 / 24)
+    before = rig.face.network.positions.copy()
+    generator = baking.expression_shapes(rig, expressions, cache=ShapeCache(tmp_path))
+    first = next(generator)
+    assert np.array_equal(rig.face.network.positions, before)              # workers use their own copies
+    threaded = _arrays([first, *generator]) + _arrays(baking.basis_shapes(rig, 0.3))
+    assert [entry[0] for entry in threaded] == [entry[0] for entry in alone]
+    assert threaded == alone
+    again = ShapeCache(tmp_path)
+    assert _arrays(baking.expression_shapes(rig, expressions, cache=again))[:5] == alone[:5]
+    assert (again.hits, again.misses) == (5, 0)

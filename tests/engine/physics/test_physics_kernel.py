@@ -101,7 +101,7 @@ def test_compiled_code_is_cached_in_the_given_folder_only(tmp_path):
 
 @pytest.mark.parametrize("fraction", [0.25, 1.0])
 def test_compiled_guards_match_numpy(fraction):
-    from faces_hands_addon.physics import BoneHalfSpaceGuard, SphereGuard
+    from faces_hands_addon.physics import BoneHalfSpaceGuard, CapBulge, SphereGuard
     rng = np.random.default_rng(7)
     nodes = np.sort(rng.choice(400, 150, replace=False))
     point, normal = rng.normal(size=(3, 150)) * 0.01, rng.normal(size=(3, 150))
@@ -119,6 +119,16 @@ def test_compiled_guards_match_numpy(fraction):
         eye = SphereGuard(nodes[::2], [0.001, 0.0, -0.002], 0.008)
         eye.backend = backend
         eye(x, v, fraction)
+        # the lid guard as the face uses it: cornea bulge with per-node sag, let off near the rest place
+        sag = np.linspace(0.0, 0.0004, len(nodes[1::2]))
+        rest = x[:, nodes[1::2]] + np.random.default_rng(5).normal(size=(3, len(nodes[1::2]))) * 0.0005
+        lid = SphereGuard(nodes[1::2], [0.0, 0.004, 0.0], 0.009, extra=CapBulge(0.009, 0.035, 32.0, sag),
+                          rest=rest, fade=0.0015)
+        lid.backend = backend
+        before = x[:, lid.nodes].copy()
+        lid(x, v, fraction)
+        pushed = np.sqrt(np.einsum("ij,ij->j", x[:, lid.nodes] - before, x[:, lid.nodes] - before)) > 1e-6
+        assert 5 < pushed.sum() < len(lid.nodes)                  # the lid guard acted on some nodes, not all
         outcome.append((x, v))
     assert np.abs(outcome[0][0] - outcome[1][0]).max() < TOLERANCE_M
     assert np.abs(outcome[0][1] - outcome[1][1]).max() < 1e-9
@@ -141,3 +151,28 @@ def test_auto_backend_loads_numba_only_where_it_pays():
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
     env.pop(kernel.ENV_VARIABLE, None)
     subprocess.run([sys.executable, "-c", script], check=True, env=env, timeout=600)
+
+
+def test_compiled_nearest_bone_vertex_matches_the_kd_tree():
+    """The skin guard's re-anchoring asks for the nearest bone vertex within reach; the compiled grid
+    search (collision._grid_nearest) must give the KD-tree's answer: same vertex, same distance, none
+    beyond reach."""
+    from scipy.spatial import cKDTree
+    from faces_hands_addon.physics import collision
+    search = kernel.compiled(collision._grid_nearest)
+    assert search is not None
+    rng = np.random.default_rng(9)
+    direction = rng.normal(size=(3000, 3))
+    vertices = 0.08 * direction / np.linalg.norm(direction, axis=1, keepdims=True) * [1.0, 1.2, 1.1]
+    reach = 0.02
+    order, starts, origin, dims = collision._vertex_grid(vertices, reach)
+    points = vertices[rng.integers(0, len(vertices), 4000)] * rng.uniform(0.7, 1.4, (4000, 1))
+    points[:50] += 1.0                                                     # far outside the grid
+    dist, index = np.empty(len(points)), np.empty(len(points), np.int64)
+    search(points, vertices, order, starts, origin, reach, dims, reach, dist, index)
+    expected_dist, expected_index = cKDTree(vertices).query(points, distance_upper_bound=reach)
+    assert np.array_equal(index, expected_index)
+    assert np.array_equal(np.isinf(dist), np.isinf(expected_dist))
+    finite = np.isfinite(dist)
+    assert np.abs(dist[finite] - expected_dist[finite]).max() < 1e-15
+    assert 0.2 < finite.mean() < 0.98                                      # both cases occur
