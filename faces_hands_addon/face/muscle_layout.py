@@ -92,9 +92,15 @@ class MuscleSpec:
 @dataclass
 class ConnectionSpec:
     """Control points of several muscles that stay together (weighted-centre rule, 3.1.2 "Muscle
-    Deformation"): ``members`` = (muscle name, coarse (row, column) pairs)."""
+    Deformation"): ``members`` = (muscle name, coarse (row, column) pairs). A ``kind="push"`` entry instead
+    moves every point of the ``targets`` muscles by the members' mean displacement, ``gain`` faded to 0 at
+    ``reach`` m (:meth:`.muscles.MuscleSystem._push`)."""
     name: str
     members: list[tuple[str, list[tuple[int, int]]]] = field(default_factory=list)
+    kind: str = "keep"
+    targets: tuple[str, ...] = ()
+    gain: float = 1.0
+    reach: float = 0.02
 
 
 def _coarse_cells(spec_text: str, shape: tuple[int, int]) -> list[tuple[int, int]]:
@@ -175,7 +181,13 @@ def parse_muscle_specs(text: str, mirror: np.ndarray, path: str = "muscles.json"
                     pairs = [(shape[0] - 1 - r, c) for r, c in pairs]   # a symmetric muscle: mirror rows
                 members.append((target, pairs))
             label = entry["name"][:-2] + "_L" if mirrored and entry["name"].endswith("_R") else entry["name"]
-            connections.append(ConnectionSpec(label, members))
+            kind = entry.get("kind", "keep")
+            targets = tuple(entry.get("targets", ()))
+            if kind not in ("keep", "push") or (kind == "push" and not all(t in by_name for t in targets)):
+                raise UserError(f"{path}: connection {entry['name']!r}: kind is keep or push; a push names "
+                                "existing target muscles")
+            connections.append(ConnectionSpec(label, members, kind, targets, float(entry.get("gain", 1.0)),
+                                              entry.get("reach_mm", 20.0) * mm))
     return specs, connections
 
 

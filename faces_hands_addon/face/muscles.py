@@ -38,6 +38,7 @@ from .muscle_layout import ConnectionSpec, PlacedMuscle
 __all__ = ["MuscleSystem", "MuscleState"]
 
 CONNECTION_GAIN = 8.0        # weight of a control point = 1 + gain * contraction of its muscle
+RETRACTED_OUTER = 0.5        # orbicularis oris pulled back: the outermost fibre travels this much of the innermost
 
 
 @dataclass
@@ -64,6 +65,9 @@ class MuscleSystem:
         self.rest = np.concatenate([m.points.reshape(-1, 3) for m in placed])
         self.normal = np.concatenate([m.normals.reshape(-1, 3) for m in placed])
         self.bone = np.concatenate([np.repeat(m.row_bone, m.shape[1]) for m in placed])
+        #: how far the jaw carries each control point: its row's bone (0 skull, 1 jaw), or a fraction where
+        #: the skin it moves is carried part way (the lips towards the mouth corners, :meth:`set_jaw_carry`)
+        self.jaw_carry = self.bone.astype(np.float64)
         self.muscle_of_point = np.concatenate([np.full(s, i) for i, s in enumerate(sizes)])
         self.thickness_rest = np.concatenate([np.full(s, m.spec.thickness) for s, m in zip(sizes, placed)])
         # mouth frame (x: right -> left corner, y: protrusion axis reversed, z: up), rows are axes
@@ -90,6 +94,10 @@ class MuscleSystem:
             self.position_along.append(s / length)
         self.centres = [None] * len(placed)
         self.fibre_squeeze = [None] * len(placed)
+
+    def set_jaw_carry(self, carry: np.ndarray) -> None:
+        """Per control point, the fraction (0..1) of the jaw's motion that carries it at rest."""
+        self.jaw_carry = np.clip(np.asarray(carry, np.float64), 0.0, 1.0)
 
     def set_centres(self, centres: list[np.ndarray | None]) -> None:
         """Sphincter centres of contraction (head coordinates, rest pose), one per muscle or None."""
@@ -133,7 +141,7 @@ class MuscleSystem:
 
     def _prepare_connections(self, placed: list[PlacedMuscle], connections: list[ConnectionSpec]) -> None:
         index_of = {name: i for i, name in enumerate(self.names)}
-        self.groups = []
+        self.groups, self.pushes = [], []
         for conn in connections:
             points = []
             for name, pairs in conn.members:
@@ -144,10 +152,23 @@ class MuscleSystem:
                     fr, fc = min(r * sr, rows - 1), min(c * sc, cols - 1)
                     points.append(self.offsets[m] + fr * cols + fc)
             points = np.unique(np.array(points, np.int64))
+            if conn.kind == "push":
+                self._prepare_push(conn, points, placed, index_of)
+                continue
             self.groups.append((conn.name, points))
         self.connected = np.zeros(len(self.rest), bool)
         for _, pts in self.groups:
             self.connected[pts] = True
+
+    def _prepare_push(self, conn: ConnectionSpec, sources: np.ndarray, placed: list[PlacedMuscle],
+                      index_of: dict[str, int]) -> None:
+        """A push's target points (every point of the target muscles) and their weights: ``gain`` faded
+        to 0 at ``reach`` from the nearest source point."""
+        targets = np.concatenate([np.arange(self.offsets[index_of[name]], self.offsets[index_of[name] + 1])
+                                  for name in conn.targets])
+        distance = np.linalg.norm(self.rest[targets][:, None] - self.rest[sources][None], axis=2).min(axis=1)
+        t = np.clip(distance / conn.reach, 0.0, 1.0)
+        self.pushes.append((sources, targets, conn.gain * (1.0 - t * t * (3.0 - 2.0 * t))))
 
     def _prepare_propagation(self) -> None:
         """Per muscle, the linear map from corrections at its fixed points to all its points."""
@@ -185,62 +206,79 @@ class MuscleSystem:
         ``protrusion`` ([-1, 1]) and the jaw pose (4x4)."""
         contraction = np.clip(np.asarray(contraction, np.float64), 0.0, 1.0)
         protrusion = float(np.clip(protrusion, -1.0, 1.0))
-        on_jaw = self.bone == 1
-        carried = self.rest.copy()
-        carried[on_jaw] = _transform(jaw, self.rest[on_jaw])
+        carry = self.jaw_carry[:, None]
+        carried = self.rest + carry * (_transform(jaw, self.rest) - self.rest)
+        on_jaw = self.jaw_carry > 0.5
         normal = self.normal.copy()
         normal[on_jaw] = self.normal[on_jaw] @ jaw[:3, :3].T
         points = carried.copy()
         own_length = np.ones(len(self.rest))        # fibre length ratio from the muscle's own contraction
         for index, spec in enumerate(self.specs):
-            sl = self.slice(index)
-            rows, cols = self.shapes[index]
-            c = contraction[index]
-            if spec.kind == "linear":
-                if c <= 0:
-                    continue
-                rest = self.rest[sl].reshape(rows, cols, 3)
-                s = self.arclength[index]
-                target = s * (1.0 - c * spec.max_shortening)
-                # locate each target arc length on the rest polyline of its own column
-                seg = (s[None, :, :] <= target[:, None, :]).sum(axis=1) - 1           # (R, C)
-                seg = np.clip(seg, 0, rows - 2)
-                cols_idx = np.arange(cols)[None, :]
-                s0, s1 = s[seg, cols_idx], s[seg + 1, cols_idx]
-                t = np.clip((target - s0) / np.maximum(s1 - s0, 1e-12), 0.0, 1.0)[..., None]
-                moved = rest[seg, cols_idx] * (1 - t) + rest[seg + 1, cols_idx] * t
-                flat = moved.reshape(-1, 3)
-                jaw_rows = on_jaw[sl]
-                flat[jaw_rows] = _transform(jaw, flat[jaw_rows])
-                points[sl] = flat
-                own_length[sl] = 1.0 - c * spec.max_shortening
-            else:
-                centre = self.centres[index]
-                if centre is None:
-                    continue
-                squeeze = self.fibre_squeeze[index]
-                if spec.group == "oris":
-                    centre_now = 0.5 * (centre + _transform(jaw, centre[None])[0])
-                    axes = self.mouth_axes
-                else:
-                    centre_now = centre
-                    axes = np.eye(3)
-                local = (points[sl].reshape(rows, cols, 3) - centre_now) @ axes.T
-                rounding = c * max(protrusion, 0.0) if spec.group == "oris" else 0.0
-                sx = 1.0 - c * squeeze[0][None, :] - rounding * squeeze[2][None, :]
-                sz = (1.0 - c * squeeze[1][None, :]) * np.clip(1.0 - rounding * squeeze[3], 0.0, 1.0)
-                local[..., 0] *= sx
-                local[..., 2] *= sz
-                if spec.group == "oris" and protrusion != 0.0:
-                    travel = spec.protrusion[0] if protrusion > 0 else spec.protrusion[1]
-                    inner_weight = np.linspace(1.0, 0.0, cols) if cols > 1 else np.ones(1)
-                    local[..., 1] -= protrusion * travel * inner_weight[None, :]
-                points[sl] = (local @ axes + centre_now).reshape(-1, 3)
-                own_length[sl] = np.broadcast_to(0.5 * (sx + sz), (rows, cols)).ravel()
+            if spec.kind == "linear" and contraction[index] > 0:
+                sl = self.slice(index)
+                points[sl] = self._shortened(index, contraction[index], jaw)
+                own_length[sl] = 1.0 - contraction[index] * spec.max_shortening
+        points = self._push(points, carried)
+        for index, spec in enumerate(self.specs):
+            if spec.kind != "linear" and self.centres[index] is not None:
+                self._squeeze(index, contraction[index], protrusion, jaw, points, own_length)
         points = self._connect(points, contraction)
         thickness = self._bulge(points, contraction, own_length)
         surface = points + normal * (thickness - self.thickness_rest)[:, None]
         return MuscleState(surface, surface - carried, thickness)
+
+    def _shortened(self, index: int, c: float, jaw: np.ndarray) -> np.ndarray:
+        """A linear muscle's points moved along their own fibres towards the origin (module docstring, 1),
+        then carried by the jaw."""
+        spec, sl = self.specs[index], self.slice(index)
+        rows, cols = self.shapes[index]
+        rest = self.rest[sl].reshape(rows, cols, 3)
+        s = self.arclength[index]
+        target = s * (1.0 - c * spec.max_shortening)
+        # locate each target arc length on the rest polyline of its own column
+        seg = np.clip((s[None, :, :] <= target[:, None, :]).sum(axis=1) - 1, 0, rows - 2)        # (R, C)
+        cols_idx = np.arange(cols)[None, :]
+        s0, s1 = s[seg, cols_idx], s[seg + 1, cols_idx]
+        t = np.clip((target - s0) / np.maximum(s1 - s0, 1e-12), 0.0, 1.0)[..., None]
+        flat = (rest[seg, cols_idx] * (1 - t) + rest[seg + 1, cols_idx] * t).reshape(-1, 3)
+        return flat + self.jaw_carry[sl][:, None] * (_transform(jaw, flat) - flat)
+
+    def _push(self, points: np.ndarray, carried: np.ndarray) -> np.ndarray:
+        """Pushes (:class:`.muscle_layout.ConnectionSpec` of kind "push"): the tissue a contracting muscle
+        bunches up moves what lies beyond it (the mentalis raising the chin boss pushes the lower lip up,
+        FACS AU17): each target point moves by the mean displacement of the source points, faded with its
+        distance from them."""
+        for sources, targets, weight in self.pushes:
+            moved = (points[sources] - carried[sources]).mean(axis=0)
+            if np.any(moved):
+                points[targets] += weight[:, None] * moved
+        return points
+
+    def _squeeze(self, index: int, c: float, protrusion: float, jaw: np.ndarray, points: np.ndarray,
+                 own_length: np.ndarray) -> None:
+        """A sphincter contracting towards its centre (module docstring, 1), in place."""
+        spec, sl = self.specs[index], self.slice(index)
+        rows, cols = self.shapes[index]
+        centre, squeeze = self.centres[index], self.fibre_squeeze[index]
+        if spec.group == "oris":
+            centre_now = 0.5 * (centre + _transform(jaw, centre[None])[0])
+            axes = self.mouth_axes
+        else:
+            centre_now = centre
+            axes = np.eye(3)
+        local = (points[sl].reshape(rows, cols, 3) - centre_now) @ axes.T
+        rounding = c * max(protrusion, 0.0) if spec.group == "oris" else 0.0
+        sx = 1.0 - c * squeeze[0][None, :] - rounding * squeeze[2][None, :]
+        sz = (1.0 - c * squeeze[1][None, :]) * np.clip(1.0 - rounding * squeeze[3], 0.0, 1.0)
+        local[..., 0] *= sx
+        local[..., 2] *= sz
+        if spec.group == "oris" and protrusion != 0.0:
+            travel = spec.protrusion[0] if protrusion > 0 else spec.protrusion[1]
+            outer = 0.0 if protrusion > 0 else RETRACTED_OUTER      # pulled back, the whole lip goes back
+            inner_weight = np.linspace(1.0, outer, cols) if cols > 1 else np.ones(1)
+            local[..., 1] -= protrusion * travel * inner_weight[None, :]
+        points[sl] = (local @ axes + centre_now).reshape(-1, 3)
+        own_length[sl] = np.broadcast_to(0.5 * (sx + sz), (rows, cols)).ravel()
 
     def _connect(self, points: np.ndarray, contraction: np.ndarray) -> np.ndarray:
         if not self.groups:

@@ -31,6 +31,7 @@ from ..core.errors import UserError
 from ..core.rig import Pose, write_rig_archive
 from . import FACE_RIG_FORMAT, kinematics
 from .controls import control_specs
+from .lip_contact import LipContact
 from .network import FaceNetwork, SkinMaterial, build_network
 from .persistence import read_saved_rig, restore_state, saved_state
 from .template import HeadTemplate, build_template, default_inputs
@@ -70,6 +71,7 @@ class FaceRig:
         self.identity = ""                 # set by the rig store (core.rig.save_rig / load_rig_bytes)
         kinematic = template.skin.kinematic
         self._driven = kinematic is not None and bool(np.any(kinematic))
+        self._lip_contact = LipContact.build(template.skin, template.attachment.node_bone)
         self._cache_key = None
         self._targets = None
         self.time = 0.0
@@ -198,6 +200,10 @@ class FaceRig:
         state = t.muscles.deform(self._contraction_vector(), self.controls["orbicularis_oris_protrusion"], jaw)
         self._muscle_state = state
         target += t.attachment.muscle_displacement(state.displacement)
+        target += t.attachment.jaw_frame_correction(t.muscles.rest, t.muscles.jaw_carry, jaw)
+        if self._lip_contact is not None:                 # the lips meet instead of passing through each other
+            target[:, 2] += self._lip_contact.correction(target)
+            target = self._lip_contact.commissures(target, rest)
         self._cache_key, self._targets = key, target
         self._jaw_now = jaw
         return target

@@ -19,7 +19,7 @@ from faces_hands_addon.face.rig import build_default_rig
 
 MM = 1000.0
 ROUNDED_U = {"orbicularis_oris_upper": 0.75, "orbicularis_oris_lower": 0.75, "orbicularis_oris_protrusion": 1.0,
-             "jaw_open": 0.12}                                    # presets/speech/articulation.json, /uw/
+             "jaw_open": 0.16}                                    # presets/speech/articulation.json, /uw/
 CROWN_VERTICES = 2 + 7 * 12                                       # organs._box_tooth: an 8 x 12 UV sphere
 
 
