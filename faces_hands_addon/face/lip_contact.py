@@ -16,7 +16,7 @@ __all__ = ["LipContact"]
 TOLERANCE = 0.0002        # m of overlap the lips may press into each other before they give way
 SPREAD = 0.009            # m over the skin from the margin over which the lip tissue follows the margin
 STACKED = (0.0015, 0.0035)  # m: lips this far apart front to back still touch fully / no longer touch
-CORNER = 0.005           # m around each mouth corner (commissure) that moves as one piece
+CORNER = 0.007           # m around each mouth corner (commissure) that moves as one piece
 
 
 def _smoothstep(t: np.ndarray) -> np.ndarray:

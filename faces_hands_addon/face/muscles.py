@@ -168,7 +168,8 @@ class MuscleSystem:
                                   for name in conn.targets])
         distance = np.linalg.norm(self.rest[targets][:, None] - self.rest[sources][None], axis=2).min(axis=1)
         t = np.clip(distance / conn.reach, 0.0, 1.0)
-        self.pushes.append((sources, targets, conn.gain * (1.0 - t * t * (3.0 - 2.0 * t))))
+        axes = np.array([float(a in conn.axes) for a in "xyz"])
+        self.pushes.append((sources, targets, conn.gain * (1.0 - t * t * (3.0 - 2.0 * t)), axes))
 
     def _prepare_propagation(self) -> None:
         """Per muscle, the linear map from corrections at its fixed points to all its points."""
@@ -246,10 +247,11 @@ class MuscleSystem:
     def _push(self, points: np.ndarray, carried: np.ndarray) -> np.ndarray:
         """Pushes (:class:`.muscle_layout.ConnectionSpec` of kind "push"): the tissue a contracting muscle
         bunches up moves what lies beyond it (the mentalis raising the chin boss pushes the lower lip up,
-        FACS AU17): each target point moves by the mean displacement of the source points, faded with its
+        FACS AU17; one side's risorius pulling the whole lip ring sideways, ARKit mouthLeft): each target point
+        moves by the mean displacement of the source points (along the push's axes), faded with its
         distance from them."""
-        for sources, targets, weight in self.pushes:
-            moved = (points[sources] - carried[sources]).mean(axis=0)
+        for sources, targets, weight, axes in self.pushes:
+            moved = (points[sources] - carried[sources]).mean(axis=0) * axes
             if np.any(moved):
                 points[targets] += weight[:, None] * moved
         return points

@@ -45,7 +45,7 @@ __all__ = ["SkinMaterial", "MATERIAL_RANGES", "FaceNetwork", "build_network"]
 
 SKIN_EDGE_STIFFNESS = 1.0     # N/m; the scale is free (muscles move anchors kinematically)
 COMPRESSION_SOFTNESS = 0.25   # skin yields under compression (a membrane without bending would buckle)
-CORNER_RADIUS, CORNER_GAIN = 0.003, 20.0    # m around each mouth corner; attachment gain there
+CORNER_RADIUS, CORNER_GAIN = 0.0035, 40.0    # m around each mouth corner (the modiolus' knot); its attachment gain
 
 #: documented UI ranges of the material knobs (values outside are clamped)
 MATERIAL_RANGES = {

@@ -32,6 +32,7 @@ from ..core.rig import Pose, write_rig_archive
 from . import FACE_RIG_FORMAT, kinematics
 from .controls import control_specs
 from .lip_contact import LipContact
+from .pressure import CheekPressure
 from .network import FaceNetwork, SkinMaterial, build_network
 from .persistence import read_saved_rig, restore_state, saved_state
 from .template import HeadTemplate, build_template, default_inputs
@@ -72,6 +73,7 @@ class FaceRig:
         kinematic = template.skin.kinematic
         self._driven = kinematic is not None and bool(np.any(kinematic))
         self._lip_contact = LipContact.build(template.skin, template.attachment.node_bone)
+        self._pressure = CheekPressure.build(template.skin, np.asarray(template.skin.normals, np.float64))
         self._cache_key = None
         self._targets = None
         self.time = 0.0
@@ -195,12 +197,18 @@ class FaceRig:
         target = t.attachment.carried(rest, jaw)
         for side, lid in t.organs.lids.items():
             rotated = lid.rotate(rest, self.controls[f"eyelid_close_{side}"], self.eye_gaze(side)[1],
-                                 self.controls.get(f"eyelid_raise_{side}", 0.0))
+                                 self.controls.get(f"eyelid_raise_{side}", 0.0),
+                                 self.controls.get(f"orbicularis_oculi_{side}", 0.0))
             target[lid.index] += rotated[lid.index] - rest[lid.index]
         state = t.muscles.deform(self._contraction_vector(), self.controls["orbicularis_oris_protrusion"], jaw)
         self._muscle_state = state
         target += t.attachment.muscle_displacement(state.displacement)
         target += t.attachment.jaw_frame_correction(t.muscles.rest, t.muscles.jaw_carry, jaw)
+        if self._pressure is not None:                    # air in the mouth (cheekPuff)
+            puff = self._pressure.displacement(self.controls.get("cheek_puff", 0.0),
+                                               {s: self.controls.get(f"buccinator_{s}", 0.0) for s in "LR"})
+            if puff is not None:
+                target += puff
         if self._lip_contact is not None:                 # the lips meet instead of passing through each other
             target[:, 2] += self._lip_contact.correction(target)
             target = self._lip_contact.commissures(target, rest)

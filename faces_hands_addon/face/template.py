@@ -280,8 +280,9 @@ def _organs(skin: SkinMesh, canonical: np.ndarray, bones: BoneFit, nodes: np.nda
         parts[f"eye_{side}"] = organs.eyeball_mesh(centre, EYEBALL_RADIUS, f"eye_{side}")
         upper = nodes[skin.contours[f"eye_{side}_upper"]]
         lower = nodes[skin.contours[f"eye_{side}_lower"]]
+        is_up, is_low = skin.group(f"lid_upper_{side}"), skin.group(f"lid_lower_{side}")
         lids[side] = LidRig(centre, nodes, upper, lower, eyeball_radius=EYEBALL_RADIUS,
-                            surface=skin.group("surface"))
+                            surface=skin.group("surface"), side=is_up.astype(int) - is_low.astype(int))
     # teeth: upper incisal edge 7.5 mm behind the stomion, 1 mm above it (lips parted, as a fitted head's
     # mesh has them), or CLOSED_LIP_COVER below it (lips closed at rest: the lower lip covers the edge);
     # arch from the mouth width
