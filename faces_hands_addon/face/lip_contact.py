@@ -1,11 +1,12 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Lip contact (issue 10: "lip collision ... that keep the ... lower lip clean"): the lips rest closed, so a
+"""Lip contact (lip collision that keeps the lower lip clean): the lips rest closed, so a
 muscle that lifts one lip (the mentalis pushing the lower lip up, AU17; the orbicularis oris of one lip)
 would push it through the other. Per control state, where the attachment targets of the two lip margins
 cross (the lower margin above the upper one at the same x) while the lips are stacked (not one tucked
 behind the other, as the lower lip goes behind the upper incisors for /f v/), both margins give way by
 half the overlap and the lip tissue around them follows, fading over a few millimetres (3.1.2 "Mass Spring
 Network": the attachment pairs carry the skin to the targets, so contact is resolved on the targets).
+The commissures, where the lips meet in small triangles, move as one piece (:meth:`LipContact.commissures`).
 """
 from __future__ import annotations
 

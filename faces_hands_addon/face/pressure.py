@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Air in the mouth (ARKit cheekPuff; issue 10: "a buccinator and a cheek-puff pressure term"). The thesis'
+"""Air in the mouth (ARKit cheekPuff: a buccinator and a cheek-puff pressure term). The thesis'
 muscles only pull; puffed cheeks are pushed out from inside. With the lips sealed, the pressure of the air
 in the oral vestibule moves the cheek wall outwards along its normal, most over the middle of the buccal
 region (lateral to and a little behind and above each mouth corner, where only the buccinator and the

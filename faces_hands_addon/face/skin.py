@@ -90,7 +90,7 @@ def _smoothstep(t: np.ndarray) -> np.ndarray:
 def close_rest_lips(vertices: np.ndarray, contours: dict[str, np.ndarray], upper_share: float = UPPER_LIP_SHARE,
                     overlap: float = LIP_OVERLAP) -> np.ndarray:
     """The canonical face with its lips closed (a relaxed closed mouth: the MediaPipe canonical face's lips
-    are ~5.5 mm apart, issue 10 wants a closed neutral). Over the mouth's width each vertex above the lip
+    are ~5.5 mm apart; a relaxed neutral keeps them together). Over the mouth's width each vertex above the lip
     line moves down by ``upper_share`` of the inner-lip gap at its x, each vertex below it up by the rest,
     fully within 3 / 4 mm of the inner lip contour and fading out 16 mm above / 26 mm below it (the upper lip
     and philtrum, the lower lip and chin soft tissue stretch); the two inner contours also meet in depth
