@@ -1,7 +1,8 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Full-resolution contact-sheet cells of the shapes the audit (``bench/shapes.py``) measures, for looking
-at: neutral, brows up/down, blink, smile, jawOpen and the visemes PP, FF, aa, ou (``--names`` for others),
-front and side, one PNG per view. Runs the installed extension inside the bpy module (``make install``).
+at: issue 10's acceptance list (neutral, brows up/down, blink, smile, frown, funnel, pucker, cheekPuff,
+jawOpen, the visemes PP, FF, E, aa, ou and the seven named emotions; ``--names`` for others), front and
+side, one PNG per view. Runs the installed extension inside the bpy module (``make install``).
 
 Run: ``.venv/bin/python bench/shape_cells.py --out-dir DIR [--size 700x800] [--blend RIG.blend]``.
 """
@@ -17,8 +18,9 @@ import _harness  # noqa: E402
 
 import bpy  # noqa: E402
 
-CELLS = ("neutral", "browInnerUp", "browOuterUpLeft", "browDownLeft", "eyeBlinkLeft", "mouthSmileLeft", "jawOpen",
-         "viseme_PP", "viseme_FF", "viseme_aa", "viseme_ou", "eyeLookInLeft")
+CELLS = ("neutral", "browInnerUp", "browOuterUpLeft", "browDownLeft", "eyeBlinkLeft", "mouthSmileLeft",
+         "mouthFrownLeft", "mouthFunnel", "mouthPucker", "cheekPuff", "jawOpen", "viseme_PP", "viseme_FF", "viseme_E",
+         "viseme_aa", "viseme_ou", "smile", "frown", "surprise", "sadness", "anger", "disgust", "fear")
 
 
 def main() -> int:
@@ -28,7 +30,7 @@ def main() -> int:
     parser.add_argument("--names", help="expression names, emotion words (Table 4.4) or activation,evaluation "
                                            "points, separated by ';' (default: the audit's picks)")
     parser.add_argument("--blend", help="a .blend with a face rig (default: the default head)")
-    parser.add_argument("--columns", type=int, default=4)
+    parser.add_argument("--columns", type=int, default=6)
     parser.add_argument("--prefix", default="cells")
     args = parser.parse_args()
     ext = _harness.EXTENSION

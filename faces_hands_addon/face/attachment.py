@@ -29,6 +29,9 @@ __all__ = ["AttachmentMap", "BoneSurface", "signed_bone_distance", "attach_to_bo
 SKULL, JAW = 0, 1
 MAX_MUSCLES_PER_NODE = 3
 MOUTH_REACH = 0.022          # m over the skin from the inner lip contours: where the lips decide the bone
+LIP_JAW_FALLOFF = 0.010      # m over the skin from the lip margins: where the lips' jaw weights meet the face's
+LIP_CORNER_CARRY = 0.35       # of the jaw's motion that carries the mouth corners
+LIP_OPENING_POWER = 1.0      # shape of the opening along the lips (0.5: an ellipse; larger: pointed corners)
 
 
 @dataclass
@@ -55,6 +58,19 @@ class AttachmentMap:
         if self._spread is None:
             self._spread = self.spread_muscle_matrix()
         return self._spread @ point_displacement
+
+    def jaw_frame_correction(self, muscle_rest: np.ndarray, muscle_carry: np.ndarray, jaw: np.ndarray) -> np.ndarray:
+        """Muscle displacements are measured from each control point's rest position carried by the jaw as
+        far as *its* carry (``muscle_carry``, :attr:`.muscles.MuscleSystem.jaw_carry`), but the node adds them to its own rest position
+        carried by *its* jaw weight. Where the two differ (the mouth corners, carried half way) the node would
+        count the jaw twice or not at all; this term (N, 3) makes the node's muscle pull relative to the
+        muscle points carried with the node's own jaw weight, so a node attached to a muscle goes where the
+        muscle goes (Fig. 3.4)."""
+        moved = muscle_rest @ jaw[:3, :3].T + jaw[:3, 3] - muscle_rest
+        if not np.any(moved):
+            return np.zeros((len(self.jaw_weight), 3))
+        own = self.muscle_displacement(moved * muscle_carry[:, None])
+        return own - self.jaw_weight[:, None] * self.muscle_displacement(moved)
 
     def spread_muscle_matrix(self) -> sparse.csr_matrix:
         """``muscle_matrix`` with the smoothing passes folded in (N, P)."""
@@ -147,7 +163,31 @@ def _mouth_bone_override(skin: SkinMesh, node_bone: np.ndarray, reach: float = M
     out[near] = np.where(d_low[near] < d_up[near], JAW, SKULL)
     out[skin.group("upper_lip")] = SKULL
     out[skin.group("lower_lip")] = JAW
-    return out, near, np.minimum(d_up, d_low)
+    return out, near, np.minimum(d_up, d_low), (d_up, d_low)
+
+
+def lip_jaw_weight(x: np.ndarray, lower: np.ndarray, distance: np.ndarray, far: np.ndarray,
+                   corners: tuple[float, float], falloff: float = LIP_JAW_FALLOFF) -> np.ndarray:
+    """How far the jaw carries points of the lips (skin nodes and the orbicularis oris): at the lip margins
+    the lower lip goes with the jaw and the upper lip stays, except towards the mouth corners, where both
+    lips go half way with it (the commissure moves about half as far as the lower lip when the mouth
+    opens), so the opening is a lens with closed corners instead of a box whose corners are torn down with
+    the jaw. At the margin (``distance`` 0) the lower lip carries ``(1 + e) / 2``, the upper lip
+    ``(1 - e) / 2`` of the jaw's motion, ``e = (1 - (x / half width)^2)^LIP_OPENING_POWER`` (``corners``: the
+    x of the two mouth corners); away from the margin the weight fades into ``far`` (the bone weight the
+    point would have otherwise) over ``falloff`` metres."""
+    lo, hi = corners
+    e = np.clip(1.0 - ((x - 0.5 * (lo + hi)) / (0.5 * (hi - lo))) ** 2, 0.0, 1.0) ** LIP_OPENING_POWER
+    margin = np.where(lower, LIP_CORNER_CARRY + (1.0 - LIP_CORNER_CARRY) * e, LIP_CORNER_CARRY * (1.0 - e))
+    t = np.clip(distance / falloff, 0.0, 1.0)
+    fade = t * t * (3.0 - 2.0 * t)
+    return np.clip((1.0 - fade) * margin + fade * far, 0.0, 1.0)
+
+
+def lip_corners(skin: SkinMesh) -> tuple[float, float]:
+    """x of the mouth corners (the ends of the inner lip contours)."""
+    inner = np.concatenate([skin.contours["lips_inner_upper"], skin.contours["lips_inner_lower"]])
+    return float(skin.vertices[inner, 0].min()), float(skin.vertices[inner, 0].max())
 
 
 def attach_to_bones(skin: SkinMesh, bones, node_mirror: np.ndarray | None):
@@ -160,7 +200,7 @@ def attach_to_bones(skin: SkinMesh, bones, node_mirror: np.ndarray | None):
     sp, sn, sd, sdist = signed_bone_distance(nodes, bones.skull_vertices, bones.skull_faces)
     jp, jn, jd, jdist = signed_bone_distance(nodes, bones.jaw_vertices, bones.jaw_faces)
     node_bone = np.where(jdist < sdist, JAW, SKULL)
-    node_bone, mouth_region, lip_distance = _mouth_bone_override(skin, node_bone)
+    node_bone, mouth_region, lip_distance, lip_distances = _mouth_bone_override(skin, node_bone)
     symmetric = node_mirror is not None
     if symmetric:
         left = nodes[:, 0] > 1e-9
@@ -179,6 +219,10 @@ def attach_to_bones(skin: SkinMesh, bones, node_mirror: np.ndarray | None):
         jaw_weight = 0.5 * (jaw_weight + jaw_weight[node_mirror])
     jaw_weight[skin.group("upper_lip")] = np.minimum(jaw_weight[skin.group("upper_lip")], 0.0)
     jaw_weight[skin.group("lower_lip")] = 1.0
+    d_up, d_low = lip_distances
+    jaw_weight = lip_jaw_weight(nodes[:, 0], d_low < d_up, np.minimum(d_up, d_low), jaw_weight, lip_corners(skin))
+    if symmetric:
+        jaw_weight = 0.5 * (jaw_weight + jaw_weight[node_mirror])
     bone_part = dict(node_bone=node_bone, jaw_weight=jaw_weight, bone_point=bone_point, bone_normal=bone_normal,
                      bone_depth=bone_depth)
     return bone_part, mouth_region, lip_distance

@@ -11,7 +11,8 @@ __all__ = ["DIRECT_CONTROLS", "muscle_control", "control_specs"]
 DIRECT_CONTROLS = (
     ControlSpec("orbicularis_oris_protrusion", -1, 1, 0, "mouth", "direct",
                 "lips forward (+1) or pressed back (-1) along the protrusion axis (3.1.2)"),
-    ControlSpec("jaw_open", 0, 1, 0, "jaw", "direct", "jaw pitch about the TMJ: 1 = ~45 mm incisal opening"),
+    ControlSpec("jaw_open", 0, 1, 0, "jaw", "direct",
+                "jaw pitch about the TMJ: 1 = the lower incisors travel ~45 mm (40 mm between the incisal edges)"),
     ControlSpec("jaw_yaw", -1, 1, 0, "jaw", "direct", "jaw yaw: + moves the chin to the character's left"),
     ControlSpec("jaw_forward", -1, 1, 0, "jaw", "direct", "jaw protrusion (+, 6 mm) / retrusion (-, 2 mm)"),
     ControlSpec("jaw_drop", -1, 1, 0, "jaw", "direct", "vertical jaw translation: + down (5 mm), - up (1 mm)"),
@@ -29,6 +30,8 @@ DIRECT_CONTROLS = (
                 "left upper lid raised (levator palpebrae, FACS AU5): 1 = ~2 mm higher"),
     ControlSpec("eyelid_raise_R", 0, 1, 0, "eyes", "direct",
                 "right upper lid raised (levator palpebrae, FACS AU5): 1 = ~2 mm higher"),
+    ControlSpec("cheek_puff", 0, 1, 0, "cheeks", "direct",
+                "air in the mouth pushes the cheeks out (ARKit cheekPuff): 1 = 5 mm; the buccinator resists it"),
     ControlSpec("tongue_tip_up", 0, 1, 0, "tongue", "direct", "tongue tip raised (35 deg)"),
     ControlSpec("tongue_back", 0, 1, 0, "tongue", "direct", "tongue pulled back (10 mm)"),
     ControlSpec("tongue_out", 0, 1, 0, "tongue", "direct", "tongue stuck out (24 mm)"),
@@ -37,7 +40,7 @@ DIRECT_CONTROLS = (
 _MUSCLE_REGION = {
     "frontalis": "brow", "corrugator": "brow", "procerus": "brow", "orbicularis_oculi": "eyes",
     "levator_labii_alaeque": "nose", "levator_labii_superioris": "cheeks", "zygomaticus": "cheeks",
-    "levator_anguli": "cheeks", "risorius": "mouth", "depressor": "mouth", "mentalis": "mouth",
+    "levator_anguli": "cheeks", "buccinator": "cheeks", "risorius": "mouth", "depressor": "mouth", "mentalis": "mouth",
     "orbicularis_oris": "mouth",
 }
 

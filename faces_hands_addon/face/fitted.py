@@ -153,7 +153,7 @@ def fit_head(vertices, faces, landmarks=None, *, seed: int = 0, progress=None, r
     head_vertices = _transform(to_head, vertices)
     head_landmarks = _transform(to_head, landmarks)
     # -- 3. template on the registered canonical face -------------------------------------------------------
-    source = build_template(resolution, replace(inputs, canonical_vertices=head_landmarks))
+    source = build_template(resolution, replace(inputs, canonical_vertices=head_landmarks, closed_lips=False))
     # -- 4. transfer onto the artist's mesh ------------------------------------------------------------------
     report(0.8, "transferring the rig onto the mesh")
     transfer = transfer_to_mesh(source, head_vertices, proper, head_landmarks)

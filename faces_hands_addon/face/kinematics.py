@@ -48,8 +48,8 @@ def translation(offset: np.ndarray) -> np.ndarray:
 @dataclass(frozen=True)
 class JawLimits:
     """Ranges of the jaw's direct parameters (3.1.1: pitch, yaw, horizontal and vertical position)."""
-    open_deg: float = 22.0          # jaw_open = 1: rotation about the condyles ...
-    gape: float = 0.040             # ... plus the condylar glide: the lower incisors travel this far
+    open_deg: float = 26.0          # jaw_open = 1: rotation about the condyles ...
+    gape: float = 0.0455            # ... plus the condylar glide: the lower incisors travel this far
     yaw_deg: float = 6.0            # jaw_yaw = +-1: ~9 mm sideways at the chin
     forward: float = 0.006          # jaw_forward = 1: protrusion (m)
     backward: float = 0.002         # jaw_forward = -1: retrusion (m)
@@ -115,6 +115,9 @@ def _elevation(points: np.ndarray, centre: np.ndarray) -> np.ndarray:
     return np.arctan2(d[:, 2], -d[:, 1])
 
 
+CANTHUS_RADIUS = 0.0035     # m around each canthus within which the lid skin turns less, not at all at it
+
+
 class LidRig:
     """Eyelids as part of the skin (thesis 3.1.2: "eyes together with the animatable eyelids").
 
@@ -122,19 +125,25 @@ class LidRig:
     it. The upper margin closes down to a meeting line a quarter of the way up the fissure, the lower
     margin rises to it; both follow the gaze pitch (upper 70 %, lower 40 %). Lid skin further from the
     margin rotates less (weight falling to 0 over ``falloff``), so the lid skin stretches smoothly up to
-    the brow and down to the cheek.
+    the brow and down to the cheek. The canthi are tied to the orbit: within ``CANTHUS_RADIUS`` of them
+    the lids turn less and less, and where the fissure narrows towards them both lids follow the gaze
+    alike, so the corner's small triangles do not fold over when the eye closes or looks down.
     """
     MEETING = 0.25                  # fraction of the fissure the lower lid travels when closing
     FOLLOW_UPPER, FOLLOW_LOWER = 0.7, 0.4
     RAISE = 0.16                    # rad the levator lifts the upper margin (~2 mm on the eyeball, AU5)
+    SQUEEZE = 0.14                  # rad the orbicularis oculi lifts the lower margin (~1.5 mm, AU6/AU7)
 
     def __init__(self, centre: np.ndarray, nodes: np.ndarray, upper_margin: np.ndarray,
                  lower_margin: np.ndarray, falloff_upper: float = 0.009, falloff_lower: float = 0.006,
                  radius: float = 0.022, eyeball_radius: float = 0.012, surface: np.ndarray | None = None,
-                 setup_radius: float | None = None, fade: np.ndarray | None = None) -> None:
+                 setup_radius: float | None = None, fade: np.ndarray | None = None,
+                 side: np.ndarray | None = None) -> None:
         """``setup_radius``: set the rig up only on the nodes that close to the eye centre (the others get
         weight 0; a large artist's mesh need not be searched whole); ``fade`` (N,): a per-node factor on the
-        weight (0 off the face of a fitted head)."""
+        weight (0 off the face of a fitted head); ``side`` (N,): +1 / -1 for nodes known to belong to the
+        upper / lower lid (the skin's lid groups; the margin's inner strip by the canthi lies lower than
+        its elevation test expects), 0 to decide by elevation."""
         self.centre = np.asarray(centre, np.float64)
         self.clear_radius = eyeball_radius + 0.0005
         self.eyeball_radius = eyeball_radius
@@ -151,6 +160,19 @@ class LidRig:
         self.is_upper, self.weight = np.zeros(len(nodes), bool), np.zeros(len(nodes))
         self.theta_u[select], self.theta_l[select] = theta_u, theta_l
         self.is_upper[select], self.weight[select] = is_upper, weight
+        if side is not None:
+            self.is_upper = np.where(np.asarray(side) > 0, True, np.where(np.asarray(side) < 0, False, self.is_upper))
+        # how open the fissure is at each node's x, 0 at the canthi: towards the corners, where the two
+        # lids meet in tiny triangles, both lids move alike (see :meth:`rotations`)
+        # the canthi are tied to the orbit (the canthal tendons): lid skin right at them does not turn
+        canthi = np.vstack([up[[np.argmin(up[:, 0]), np.argmax(up[:, 0])]], low[[np.argmin(low[:, 0]),
+                                                                                  np.argmax(low[:, 0])]]])
+        near = np.min(np.linalg.norm(nodes[:, None] - canthi[None], axis=2), axis=1) / CANTHUS_RADIUS
+        near = np.clip(near, 0.0, 1.0)
+        self.weight = self.weight * near * near * (3 - 2 * near)
+        aperture = np.maximum(self.theta_u - self.theta_l, 0.0)
+        t = np.clip(aperture / max(0.5 * float(aperture[select].max(initial=0.0)), 1e-9), 0.0, 1.0)
+        self.open_share = t * t * (3 - 2 * t)
         if fade is not None:
             self.weight = self.weight * np.asarray(fade, np.float64)
         self.index = np.flatnonzero(self.weight > 0)
@@ -181,34 +203,42 @@ class LidRig:
         order = np.argsort(margin[:, 0], kind="stable")
         return margin[order, 0], _elevation(margin[order], self.centre)
 
-    def rotations(self, close: float, pitch: float, lift: float = 0.0, nodes: np.ndarray | None = None) -> np.ndarray:
+    def rotations(self, close: float, pitch: float, lift: float = 0.0, squeeze: float = 0.0,
+                  nodes: np.ndarray | None = None) -> np.ndarray:
         """Rotation angle (radians, + = up) of every node (or of ``nodes`` only) for lid closure ``close``,
-        gaze ``pitch`` and upper-lid raise ``lift`` (levator palpebrae superioris, FACS AU5: :data:`RAISE`
-        at 1)."""
+        gaze ``pitch``, upper-lid raise ``lift`` (levator palpebrae superioris, FACS AU5: :data:`RAISE` at 1)
+        and the orbicularis oculi's contraction ``squeeze``, which pushes the lower lid up (the cheek raiser
+        and lid tightener, AU6/AU7: :data:`SQUEEZE` at 1)."""
         pick = slice(None) if nodes is None else nodes
         theta_u, theta_l = self.theta_u[pick], self.theta_l[pick]
         close = float(np.clip(close, 0.0, 1.0))
         gaze = np.radians(EYE_PITCH_DEG) * float(np.clip(pitch, -1.0, 1.0))
-        upper = theta_u + self.FOLLOW_UPPER * gaze + self.RAISE * float(np.clip(lift, 0.0, 1.0))
-        lower = theta_l + self.FOLLOW_LOWER * gaze
+        t = self.open_share[pick]        # at the canthi both lids follow the gaze alike and nothing else
+        corner = 0.5 * (self.FOLLOW_UPPER + self.FOLLOW_LOWER)
+        upper = (theta_u + (self.FOLLOW_UPPER * t + corner * (1 - t)) * gaze
+                 + self.RAISE * float(np.clip(lift, 0.0, 1.0)) * t)
+        lower = (theta_l + (self.FOLLOW_LOWER * t + corner * (1 - t)) * gaze
+                 + self.SQUEEZE * float(np.clip(squeeze, 0.0, 1.0)) * t)
         aperture = np.maximum(upper - lower, 0.0)
         meeting = lower + self.MEETING * aperture
-        upper_final = upper + close * (meeting - 0.03 - upper)     # a little overlap: closed means closed
+        upper_final = upper + close * (meeting - 0.03 * t - upper)   # a little overlap: closed means closed
         lower_final = lower + close * (meeting - lower)
         delta = np.where(self.is_upper[pick], upper_final - theta_u, lower_final - theta_l)
         return self.weight[pick] * delta
 
-    def rotate(self, rest: np.ndarray, close: float, pitch: float, lift: float = 0.0) -> np.ndarray:
+    def rotate(self, rest: np.ndarray, close: float, pitch: float, lift: float = 0.0,
+               squeeze: float = 0.0) -> np.ndarray:
         """Rest positions of all nodes (N,3) rotated by :meth:`rotations` about the eye's X axis."""
         out = rest.copy()
-        out[self.index] = self.rotate_lid(rest[self.index], close, pitch, lift)
+        out[self.index] = self.rotate_lid(rest[self.index], close, pitch, lift, squeeze)
         return out
 
-    def rotate_lid(self, lid_rest: np.ndarray, close: float, pitch: float, lift: float = 0.0) -> np.ndarray:
+    def rotate_lid(self, lid_rest: np.ndarray, close: float, pitch: float, lift: float = 0.0,
+                   squeeze: float = 0.0) -> np.ndarray:
         """:meth:`rotate` for the lid's own nodes only: their rest positions (len(index), 3) in, rotated out
         (what a frame needs; the other nodes do not move)."""
         index = self.index
-        angle = self.rotations(close, pitch, lift, index)
+        angle = self.rotations(close, pitch, lift, squeeze, index)
         d = lid_rest - self.centre
         c, s = np.cos(angle), np.sin(angle)
         # elevation +a about X with forward = -Y: (y, z) -> (y cos a + z sin a, z cos a - y sin a)

@@ -92,9 +92,16 @@ class MuscleSpec:
 @dataclass
 class ConnectionSpec:
     """Control points of several muscles that stay together (weighted-centre rule, 3.1.2 "Muscle
-    Deformation"): ``members`` = (muscle name, coarse (row, column) pairs)."""
+    Deformation"): ``members`` = (muscle name, coarse (row, column) pairs). A ``kind="push"`` entry instead
+    moves every point of the ``targets`` muscles by the members' mean displacement, ``gain`` faded to 0 at
+    ``reach`` m, along ``axes`` of head space only (e.g. "x") (:meth:`.muscles.MuscleSystem._push`)."""
     name: str
     members: list[tuple[str, list[tuple[int, int]]]] = field(default_factory=list)
+    kind: str = "keep"
+    targets: tuple[str, ...] = ()
+    gain: float = 1.0
+    reach: float = 0.02
+    axes: str = "xyz"
 
 
 def _coarse_cells(spec_text: str, shape: tuple[int, int]) -> list[tuple[int, int]]:
@@ -175,7 +182,14 @@ def parse_muscle_specs(text: str, mirror: np.ndarray, path: str = "muscles.json"
                     pairs = [(shape[0] - 1 - r, c) for r, c in pairs]   # a symmetric muscle: mirror rows
                 members.append((target, pairs))
             label = entry["name"][:-2] + "_L" if mirrored and entry["name"].endswith("_R") else entry["name"]
-            connections.append(ConnectionSpec(label, members))
+            kind = entry.get("kind", "keep")
+            targets, axes = tuple(entry.get("targets", ())), str(entry.get("axes", "xyz"))
+            if (kind not in ("keep", "push") or (kind == "push" and not all(t in by_name for t in targets))
+                    or not axes or set(axes) - set("xyz")):
+                raise UserError(f"{path}: connection {entry['name']!r}: kind is keep or push; a push names "
+                                "existing target muscles and axes out of x, y, z")
+            connections.append(ConnectionSpec(label, members, kind, targets, float(entry.get("gain", 1.0)),
+                                              entry.get("reach_mm", 20.0) * mm, axes))
     return specs, connections
 
 

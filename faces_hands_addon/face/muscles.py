@@ -39,6 +39,7 @@ from .muscle_layout import ConnectionSpec, PlacedMuscle
 __all__ = ["MuscleSystem", "MuscleState"]
 
 CONNECTION_GAIN = 8.0        # weight of a control point = 1 + gain * contraction of its muscle
+RETRACTED_OUTER = 0.5        # orbicularis oris pulled back: the outermost fibre travels this much of the innermost
 
 
 @dataclass
@@ -65,6 +66,9 @@ class MuscleSystem:
         self.rest = np.concatenate([m.points.reshape(-1, 3) for m in placed])
         self.normal = np.concatenate([m.normals.reshape(-1, 3) for m in placed])
         self.bone = np.concatenate([np.repeat(m.row_bone, m.shape[1]) for m in placed])
+        #: how far the jaw carries each control point: its row's bone (0 skull, 1 jaw), or a fraction where
+        #: the skin it moves is carried part way (the lips towards the mouth corners, :meth:`set_jaw_carry`)
+        self.jaw_carry = self.bone.astype(np.float64)
         self.muscle_of_point = np.concatenate([np.full(s, i) for i, s in enumerate(sizes)])
         self.thickness_rest = np.concatenate([np.full(s, m.spec.thickness) for s, m in zip(sizes, placed)])
         # mouth frame (x: right -> left corner, y: protrusion axis reversed, z: up), rows are axes
@@ -93,6 +97,10 @@ class MuscleSystem:
         self.centres = [None] * len(placed)
         self.fibre_squeeze = [None] * len(placed)
         self._sphincters = None
+
+    def set_jaw_carry(self, carry: np.ndarray) -> None:
+        """Per control point, the fraction (0..1) of the jaw's motion that carries it at rest."""
+        self.jaw_carry = np.clip(np.asarray(carry, np.float64), 0.0, 1.0)
 
     def set_centres(self, centres: list[np.ndarray | None]) -> None:
         """Sphincter centres of contraction (head coordinates, rest pose), one per muscle or None."""
@@ -163,7 +171,7 @@ class MuscleSystem:
 
     def _prepare_connections(self, placed: list[PlacedMuscle], connections: list[ConnectionSpec]) -> None:
         index_of = {name: i for i, name in enumerate(self.names)}
-        self.groups = []
+        self.groups, self.pushes = [], []
         for conn in connections:
             points = []
             for name, pairs in conn.members:
@@ -174,10 +182,24 @@ class MuscleSystem:
                     fr, fc = min(r * sr, rows - 1), min(c * sc, cols - 1)
                     points.append(self.offsets[m] + fr * cols + fc)
             points = np.unique(np.array(points, np.int64))
+            if conn.kind == "push":
+                self._prepare_push(conn, points, placed, index_of)
+                continue
             self.groups.append((conn.name, points))
         self.connected = np.zeros(len(self.rest), bool)
         for _, pts in self.groups:
             self.connected[pts] = True
+
+    def _prepare_push(self, conn: ConnectionSpec, sources: np.ndarray, placed: list[PlacedMuscle],
+                      index_of: dict[str, int]) -> None:
+        """A push's target points (every point of the target muscles) and their weights: ``gain`` faded
+        to 0 at ``reach`` from the nearest source point."""
+        targets = np.concatenate([np.arange(self.offsets[index_of[name]], self.offsets[index_of[name] + 1])
+                                  for name in conn.targets])
+        distance = np.linalg.norm(self.rest[targets][:, None] - self.rest[sources][None], axis=2).min(axis=1)
+        t = np.clip(distance / conn.reach, 0.0, 1.0)
+        axes = np.array([float(a in conn.axes) for a in "xyz"])
+        self.pushes.append((sources, targets, conn.gain * (1.0 - t * t * (3.0 - 2.0 * t)), axes))
 
     def _prepare_propagation(self) -> None:
         """Per muscle, the linear map from corrections at its fixed points to all its points."""
@@ -253,24 +275,26 @@ class MuscleSystem:
         ``protrusion`` ([-1, 1]) and the jaw pose (4x4)."""
         contraction = np.clip(np.asarray(contraction, np.float64), 0.0, 1.0)
         protrusion = float(np.clip(protrusion, -1.0, 1.0))
-        on_jaw = self.bone == 1
-        carried = self.rest.copy()
-        carried[on_jaw] = _transform(jaw, self.rest[on_jaw])
+        carry = self.jaw_carry[:, None]
+        carried = self.rest + carry * (_transform(jaw, self.rest) - self.rest)
+        on_jaw = self.jaw_carry > 0.5
         normal = self.normal.copy()
         normal[on_jaw] = self.normal[on_jaw] @ jaw[:3, :3].T
         points = carried.copy()
         own_length = np.ones(len(self.rest))        # fibre length ratio from the muscle's own contraction
-        self._contract_linear(contraction, jaw, on_jaw, points, own_length)
+        self._contract_linear(contraction, jaw, points, own_length)
+        points = self._push(points, carried)
         self._contract_sphincters(contraction, protrusion, jaw, points, own_length)
         points = self._connect(points, contraction)
         thickness = self._bulge(points, contraction, own_length)
         surface = points + normal * (thickness - self.thickness_rest)[:, None]
         return MuscleState(surface, surface - carried, thickness)
 
-    def _contract_linear(self, contraction: np.ndarray, jaw: np.ndarray, on_jaw: np.ndarray, points: np.ndarray,
+    def _contract_linear(self, contraction: np.ndarray, jaw: np.ndarray, points: np.ndarray,
                          own_length: np.ndarray) -> None:
         """Step 1 for every linear muscle at once (module docstring): each control point moves to its
-        shortened arc length along the rest polyline of its own column (in place)."""
+        shortened arc length along the rest polyline of its own column, then goes its share of the way with
+        the jaw (``jaw_carry``) (in place)."""
         which, column, row, rows, arclength, grid, shortening = self._linear
         ratio = 1.0 - contraction * shortening                        # per muscle
         muscle = self.muscle_of_point[which]
@@ -285,8 +309,7 @@ class MuscleSystem:
         s1 = arclength[column, seg + 1]
         t = np.clip((target - s0) / np.maximum(s1 - s0, 1e-12), 0.0, 1.0)[:, None]
         moved = self.rest[grid[column, seg]] * (1 - t) + self.rest[grid[column, seg + 1]] * t
-        moving_jaw = on_jaw[which]
-        moved[moving_jaw] = _transform(jaw, moved[moving_jaw])
+        moved += self.jaw_carry[which][:, None] * (_transform(jaw, moved) - moved)
         points[which] = moved
         own_length[which] = ratio
 
@@ -310,10 +333,24 @@ class MuscleSystem:
         local[:, 2] *= sz
         if protrusion != 0.0:
             travel = forward if protrusion > 0 else backward
-            local[oris, 1] -= (protrusion * travel * inner)[oris]
+            # pulled back, the whole lip goes back: the outermost fibre travels RETRACTED_OUTER of the innermost
+            weight = inner if protrusion > 0 else RETRACTED_OUTER + (1.0 - RETRACTED_OUTER) * inner
+            local[oris, 1] -= (protrusion * travel * weight)[oris]
         local[oris] = local[oris] @ self.mouth_axes
         points[which] = local + centre
         own_length[which] = 0.5 * (sx + sz)
+
+    def _push(self, points: np.ndarray, carried: np.ndarray) -> np.ndarray:
+        """Pushes (:class:`.muscle_layout.ConnectionSpec` of kind "push"): the tissue a contracting muscle
+        bunches up moves what lies beyond it (the mentalis raising the chin boss pushes the lower lip up,
+        FACS AU17; one side's risorius pulling the whole lip ring sideways, ARKit mouthLeft): each target point
+        moves by the mean displacement of the source points (along the push's axes), faded with its
+        distance from them."""
+        for sources, targets, weight, axes in self.pushes:
+            moved = (points[sources] - carried[sources]).mean(axis=0) * axes
+            if np.any(moved):
+                points[targets] += weight[:, None] * moved
+        return points
 
     def _connect(self, points: np.ndarray, contraction: np.ndarray) -> np.ndarray:
         """Steps 3 and 4 (module docstring): each connection group's original distances to its weighted

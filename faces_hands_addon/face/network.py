@@ -45,6 +45,7 @@ __all__ = ["SkinMaterial", "MATERIAL_RANGES", "FaceNetwork", "build_network"]
 
 SKIN_EDGE_STIFFNESS = 1.0     # N/m; the scale is free (muscles move anchors kinematically)
 COMPRESSION_SOFTNESS = 0.25   # skin yields under compression (a membrane without bending would buckle)
+CORNER_RADIUS, CORNER_GAIN = 0.0035, 40.0    # m around each mouth corner (the modiolus' knot); its attachment gain
 
 #: documented UI ranges of the material knobs (values outside are clamped)
 MATERIAL_RANGES = {
@@ -146,6 +147,10 @@ def _attachment_pairs(template: HeadTemplate, material: SkinMaterial, lid_weight
     gain[(skin.lip_distance < 0.004) & ~skin.group("mouth_bag")] = 4.0
     for name in ("lips_inner_upper", "lips_inner_lower"):
         gain[skin.contours[name]] = 20.0                   # lip margins must reach their targets to meet
+    for name in ("lips_inner_upper",):                     # the commissures: firm, so the corner opens without folding
+        for end in (skin.contours[name][0], skin.contours[name][-1]):
+            near = np.linalg.norm(nodes - nodes[end], axis=1) < CORNER_RADIUS
+            gain[near & ~skin.group("mouth_bag")] = np.maximum(gain[near & ~skin.group("mouth_bag")], CORNER_GAIN)
     pair = SKIN_EDGE_STIFFNESS * area / spread ** 2 * gain
     offset = template.attachment.anchor_offsets(nodes, skin.normals)
     attachments = Attachments(np.arange(n), pair / 2.0, 0.0, (nodes + offset).T, (nodes - offset).T)

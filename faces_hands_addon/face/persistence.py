@@ -41,7 +41,8 @@ def saved_state(rig, inputs: TemplateInputs) -> tuple[dict, dict[str, np.ndarray
     meta = {"material": rig.material.to_dict(), "controls": {k: float(v) for k, v in rig.controls.items()},
             "time": rig.time,
             "started": face.integrator.started, "contours": sorted(inputs.contours),
-            "landmarks_json": inputs.landmarks_json, "muscles_json": inputs.muscles_json}
+            "landmarks_json": inputs.landmarks_json, "muscles_json": inputs.muscles_json,
+            "closed_lips": bool(inputs.closed_lips)}
     arrays = {name: getattr(inputs, name) for name in INPUT_ARRAYS}
     arrays.update(positions=face.network.positions, velocity=face.integrator.velocity,
                   anchor=face.network.attachments.anchor, mirror=face.network.attachments.mirror,
@@ -78,6 +79,7 @@ def read_saved_rig(path: str | Path, expected_format: str, what: str, extra: tup
     contours = {name: arrays[f"contour__{name}"] for name in meta["contours"]}
     inputs = TemplateInputs(arrays["canonical_vertices"], arrays["canonical_faces"], contours,
                             arrays["skull_vertices"], arrays["skull_faces"], arrays["jaw_vertices"],
-                            arrays["jaw_faces"], meta["landmarks_json"], meta["muscles_json"])
+                            arrays["jaw_faces"], meta["landmarks_json"], meta["muscles_json"],
+                            closed_lips=bool(meta.get("closed_lips", False)))   # rigs saved before: open
     guards = {g: {k.split("__", 1)[1]: arrays[k] for k in arrays if k.startswith(g + "__")} for g in GUARDS}
     return SavedRig(meta, inputs, {k: arrays[k] for k in STATE_ARRAYS + tuple(extra)}, guards)

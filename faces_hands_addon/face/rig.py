@@ -31,6 +31,8 @@ from ..core.errors import UserError
 from ..core.rig import Pose, write_rig_archive
 from . import FACE_RIG_FORMAT, kinematics
 from .controls import control_specs
+from .lip_contact import LipContact
+from .pressure import CheekPressure
 from .network import FaceNetwork, SkinMaterial, build_network
 from .persistence import read_saved_rig, restore_state, saved_state
 from .template import HeadTemplate, build_template, default_inputs
@@ -72,6 +74,8 @@ class FaceRig:
         self.identity = ""                 # set by the rig store (core.rig.save_rig / load_rig_bytes)
         kinematic = template.skin.kinematic
         self._driven = kinematic is not None and bool(np.any(kinematic))
+        self._lip_contact = LipContact.build(template.skin, template.attachment.node_bone)
+        self._pressure = CheekPressure.build(template.skin, np.asarray(template.skin.normals, np.float64))
         self._cache_key = None
         self._targets = self._frame_inputs = self._rigid = self._jaw = None
         self.time = 0.0
@@ -230,11 +234,21 @@ class FaceRig:
         for side, lid in t.organs.lids.items():
             lid_rest = rest[lid.index]
             rotated = lid.rotate_lid(lid_rest, self.controls[f"eyelid_close_{side}"], self.eye_gaze(side)[1],
-                                     self.controls.get(f"eyelid_raise_{side}", 0.0))
+                                     self.controls.get(f"eyelid_raise_{side}", 0.0),
+                                     self.controls.get(f"orbicularis_oculi_{side}", 0.0))
             target[lid.index] += rotated - lid_rest
         state = t.muscles.deform(self._contraction_vector(), self.controls["orbicularis_oris_protrusion"], jaw)
         self._muscle_state = state
         target += t.attachment.muscle_displacement(state.displacement)
+        target += t.attachment.jaw_frame_correction(t.muscles.rest, t.muscles.jaw_carry, jaw)
+        if self._pressure is not None:                    # air in the mouth (cheekPuff)
+            puff = self._pressure.displacement(self.controls.get("cheek_puff", 0.0),
+                                               {s: self.controls.get(f"buccinator_{s}", 0.0) for s in "LR"})
+            if puff is not None:
+                target += puff
+        if self._lip_contact is not None:                 # the lips meet instead of passing through each other
+            target[:, 2] += self._lip_contact.correction(target)
+            target = self._lip_contact.commissures(target, rest)
         self._targets = target
         self._jaw_now = jaw
         return target

@@ -21,7 +21,7 @@ from scipy import sparse
 from ..core.errors import UserError
 from ..core import geometry, refine
 
-__all__ = ["SkinMesh", "build_skin", "eyeball_sphere", "RESOLUTIONS"]
+__all__ = ["SkinMesh", "build_skin", "eyeball_sphere", "close_rest_lips", "RESOLUTIONS"]
 
 #: resolution name -> (edge length above which base edges are split (m), Loop subdivision levels)
 RESOLUTIONS = {"coarse": (0.020, 0), "default": (0.020, 1), "10k": (0.020, 2)}
@@ -29,6 +29,8 @@ RESOLUTIONS = {"coarse": (0.020, 0), "default": (0.020, 1), "10k": (0.020, 2)}
 EYEBALL_RADIUS = 0.012          # m; adult eyeball diameter ~24 mm
 LID_GAP = 0.0008                # lid margin rests this far outside the eyeball surface (tear film, lashes)
 LID_THICKNESS = 0.0022          # lid margin thickness towards the eyeball
+LIP_OVERLAP = 0.0008            # m the canonical lips are closed past contact: Loop smoothing parts them by ~this
+UPPER_LIP_SHARE = 0.25          # of the closure the upper lip makes (the lower lip rises the rest of the way)
 
 # node groups (bit flags); "surface" = the visible outer face
 GROUPS = {"surface": 1, "lip_inner": 2, "mouth_bag": 4, "lid_back": 8, "upper_lip": 16, "lower_lip": 32,
@@ -78,6 +80,40 @@ def eyeball_sphere(margin_points: np.ndarray, radius: float = EYEBALL_RADIUS, ga
         else:
             high = middle
     return centroid + np.array([0.0, 0.5 * (low + high), 0.0])
+
+
+def _smoothstep(t: np.ndarray) -> np.ndarray:
+    t = np.clip(t, 0.0, 1.0)
+    return t * t * (3.0 - 2.0 * t)
+
+
+def close_rest_lips(vertices: np.ndarray, contours: dict[str, np.ndarray], upper_share: float = UPPER_LIP_SHARE,
+                    overlap: float = LIP_OVERLAP) -> np.ndarray:
+    """The canonical face with its lips closed (a relaxed closed mouth: the MediaPipe canonical face's lips
+    are ~5.5 mm apart; a relaxed neutral keeps them together). Over the mouth's width each vertex above the lip
+    line moves down by ``upper_share`` of the inner-lip gap at its x, each vertex below it up by the rest,
+    fully within 3 / 4 mm of the inner lip contour and fading out 16 mm above / 26 mm below it (the upper lip
+    and philtrum, the lower lip and chin soft tissue stretch); the two inner contours also meet in depth
+    (the lower one lies ~2 mm further forward), fading out within 4 mm. ``overlap`` closes past contact by
+    the amount the skin's Loop smoothing opens the lips again. Mouth corners do not move."""
+    v = np.asarray(vertices, np.float64).copy()
+    up, low = np.asarray(contours["lips_inner_upper"]), np.asarray(contours["lips_inner_lower"])
+    up, low = up[np.argsort(v[up, 0], kind="stable")], low[np.argsort(v[low, 0], kind="stable")]
+    x = v[:, 0]
+    centre_x, half = 0.5 * (v[up, 0].max() + v[up, 0].min()), 0.5 * (v[up, 0].max() - v[up, 0].min())
+    inside = np.abs(x - centre_x) < half
+    z_up, z_low = np.interp(x, v[up, 0], v[up, 2]), np.interp(x, v[low, 0], v[low, 2])
+    y_up, y_low = np.interp(x, v[up, 0], v[up, 1]), np.interp(x, v[low, 0], v[low, 1])
+    profile = np.sqrt(np.clip(1.0 - ((x - centre_x) / half) ** 2, 0.0, 1.0))
+    close = np.where(inside, z_up - z_low + overlap * profile, 0.0)
+    ahead = np.where(inside, y_low - y_up, 0.0)          # < 0: the lower lip lies in front of the upper one
+    above = v[:, 2] >= 0.5 * (z_up + z_low)
+    d_up, d_low = np.maximum(v[:, 2] - z_up, 0.0), np.maximum(z_low - v[:, 2], 0.0)
+    w_up = 1.0 - _smoothstep((d_up - 0.003) / 0.013)
+    w_low = 1.0 - _smoothstep((d_low - 0.004) / 0.022)
+    v[:, 2] += np.where(above, -upper_share * close * w_up, (1.0 - upper_share) * close * w_low)
+    v[:, 1] += 0.5 * ahead * np.where(above, 1.0 - _smoothstep(d_up / 0.004), -(1.0 - _smoothstep(d_low / 0.004)))
+    return v
 
 
 def _strip(loop_a: np.ndarray, loop_b: np.ndarray, points: list, closed: bool = True) -> list[list[int]]:

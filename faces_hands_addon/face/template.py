@@ -29,12 +29,15 @@ from ..core import geometry
 from ..core.errors import UserError
 from ..core.presets import parse_preset, read_preset_text, resolve
 from . import organs
-from .attachment import JAW, AttachmentMap, attach_to_bones, attach_to_muscles, smoothing_operator
+from .attachment import (JAW, AttachmentMap, attach_to_bones, attach_to_muscles, lip_corners, lip_jaw_weight,
+                         smoothing_operator)
 from .kinematics import LidRig, opening_glide
 from .muscle_layout import parse_muscle_specs, place_muscle
 from .muscles import MuscleSystem
-from .skin import EYEBALL_RADIUS, SkinMesh, build_skin
+from .skin import EYEBALL_RADIUS, SkinMesh, build_skin, close_rest_lips
 from .skull_fit import BoneFit, fit_bones, parse_landmarks
+
+CLOSED_LIP_COVER = 0.0025    # m the closed lips' line lies above the upper incisal edge (lower lip over the edge)
 
 __all__ = ["TemplateInputs", "SkinRecord", "OrganRecord", "HeadTemplate", "build_template", "default_inputs"]
 
@@ -52,6 +55,7 @@ class TemplateInputs:
     jaw_faces: np.ndarray
     landmarks_json: str
     muscles_json: str
+    closed_lips: bool = False        # close the canonical face's lips for the skin and muscles (default head)
 
 
 @dataclass
@@ -120,7 +124,7 @@ def default_inputs() -> TemplateInputs:
         parse_preset(texts[name], str(path), f"faces_hands.face_{name}")
     face, skull, jaw = assets.canonical_face(), assets.skull(), assets.jaw()
     return TemplateInputs(face.vertices, face.faces, dict(assets.face_contours().lines), skull.vertices,
-                          skull.faces, jaw.vertices, jaw.faces, texts["landmarks"], texts["muscles"])
+                          skull.faces, jaw.vertices, jaw.faces, texts["landmarks"], texts["muscles"], closed_lips=True)
 
 
 def _skin_stage(canonical: np.ndarray, inputs: TemplateInputs, resolution: str):
@@ -177,21 +181,42 @@ def build_template(resolution: str = "default", inputs: TemplateInputs | None = 
     canonical = np.asarray(inputs.canonical_vertices, np.float64)
     if canonical.shape != (468, 3) or not np.all(np.isfinite(canonical)):
         raise UserError("the face template needs the 468 canonical-face vertices as finite (468, 3) values")
-    skin, normals, areas = _skin_stage(canonical, inputs, resolution)
+    # soft tissue (skin, muscles) from the closed-lip face; skeleton and teeth from the face as given
+    soft = close_rest_lips(canonical, inputs.contours) if inputs.closed_lips else canonical
+    skin, normals, areas = _skin_stage(soft, inputs, resolution)
     bones, bone_part, mouth_region, lip_distance, node_mirror = _bone_stage(canonical, inputs, skin, normals)
-    system, placed = _muscle_stage(canonical, inputs, skin, normals, bone_part, node_mirror)
+    system, placed = _muscle_stage(soft, inputs, skin, normals, bone_part, node_mirror)
     muscle_matrix = attach_to_muscles(system, placed, skin, bone_part["node_bone"])
-    parts, lids, tongue_pivot, arches = _organs(skin, canonical, bones, skin.vertices)
+    _carry_lips(system, placed, skin)
+    parts, lids, tongue_pivot, arches = _organs(skin, canonical, bones, skin.vertices,
+                                                closed=soft if inputs.closed_lips else None)
     _seat_teeth_in_arches(bones, arches)
     incisor = parts["teeth_lower"].vertices[parts["teeth_lower"].vertices[:, 1].argmin()]
     bones.jaw_glide = opening_glide(bones.tmj_pivot, bones.tmj_axis, incisor * np.array([0.0, 1.0, 1.0]))
     smoothing, passes = smoothing_operator(skin)
     record = SkinRecord(skin, normals, areas, mouth_region, lip_distance,
-                        _wrinkle_regions(skin, canonical, skin.vertices))
+                        _wrinkle_regions(skin, soft, skin.vertices))
     return HeadTemplate(resolution, inputs, record, bones, system,
                         AttachmentMap(**bone_part, muscle_matrix=muscle_matrix, smoothing=smoothing,
                                       smoothing_passes=passes),
                         OrganRecord(dict(skin.eye_centres), EYEBALL_RADIUS, lids, parts, tongue_pivot, arches))
+
+
+def _carry_lips(system: MuscleSystem, placed: list, skin: SkinMesh) -> None:
+    """The orbicularis oris halves are carried by the jaw like the lip skin over them (:func:`.attachment.
+    lip_jaw_weight`: the upper half stays, the lower goes with the jaw, both half way at the corners)."""
+    carry = system.jaw_carry.copy()
+    corners = lip_corners(skin)
+    for index, m in enumerate(placed):
+        if m.spec.group != "oris":
+            continue
+        lower = bool(np.round(m.row_bone.mean()))
+        margin = skin.vertices[skin.contours["lips_inner_lower" if lower else "lips_inner_upper"]]
+        points = m.skin_points.reshape(-1, 3)
+        distance, _ = cKDTree(margin).query(points)
+        carry[system.slice(index)] = lip_jaw_weight(points[:, 0], np.full(len(points), lower), distance,
+                                                    np.full(len(points), float(lower)), corners)
+    system.set_jaw_carry(carry)
 
 
 def _thickness_field(canonical: np.ndarray, landmarks, nodes: np.ndarray) -> np.ndarray:
@@ -247,20 +272,26 @@ def _mouth_axes(canonical: np.ndarray) -> np.ndarray:
     return np.array([x, y, z])
 
 
-def _organs(skin: SkinMesh, canonical: np.ndarray, bones: BoneFit, nodes: np.ndarray):
+def _organs(skin: SkinMesh, canonical: np.ndarray, bones: BoneFit, nodes: np.ndarray,
+            closed: np.ndarray | None = None):
     parts = {}
     lids = {}
     for side, centre in skin.eye_centres.items():
         parts[f"eye_{side}"] = organs.eyeball_mesh(centre, EYEBALL_RADIUS, f"eye_{side}")
         upper = nodes[skin.contours[f"eye_{side}_upper"]]
         lower = nodes[skin.contours[f"eye_{side}_lower"]]
+        is_up, is_low = skin.group(f"lid_upper_{side}"), skin.group(f"lid_lower_{side}")
         lids[side] = LidRig(centre, nodes, upper, lower, eyeball_radius=EYEBALL_RADIUS,
-                            surface=skin.group("surface"))
-    # teeth: upper incisal edge 7 mm behind the stomion, 1 mm above it; arch from the mouth width
+                            surface=skin.group("surface"), side=is_up.astype(int) - is_low.astype(int))
+    # teeth: upper incisal edge 7.5 mm behind the stomion, 1 mm above it (lips parted, as a fitted head's
+    # mesh has them), or CLOSED_LIP_COVER below it (lips closed at rest: the lower lip covers the edge);
+    # arch from the mouth width
     stomion = 0.5 * (canonical[13] + canonical[14])
     mouth_width = np.linalg.norm(canonical[291] - canonical[61])
     scale = mouth_width / 0.050
     incisal = stomion + np.array([0.0, 0.0075, 0.0010])
+    if closed is not None:
+        incisal = 0.5 * (closed[13] + closed[14]) + np.array([0.0, 0.0075, -CLOSED_LIP_COVER])
     lower_incisal = incisal + np.array([0.0, 0.0022, 0.0022])
     upper, lower = organs.teeth_meshes(incisal, 0.026 * scale, 0.040 * scale, lower_incisal, scale)
     parts["teeth_upper"], parts["teeth_lower"] = upper, lower

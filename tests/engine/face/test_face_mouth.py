@@ -19,7 +19,7 @@ from faces_hands_addon.face.rig import build_default_rig
 
 MM = 1000.0
 ROUNDED_U = {"orbicularis_oris_upper": 0.75, "orbicularis_oris_lower": 0.75, "orbicularis_oris_protrusion": 1.0,
-             "jaw_open": 0.12}                                    # presets/speech/articulation.json, /uw/
+             "jaw_open": 0.14}                                    # presets/speech/articulation.json, /uw/
 CROWN_VERTICES = 2 + 7 * 12                                       # organs._box_tooth: an 8 x 12 UV sphere
 
 
@@ -129,7 +129,7 @@ def test_tongue_out_slides_over_the_lower_teeth_past_the_lips(rig, mouth):
 
 
 def test_tongue_tip_up_reaches_behind_the_upper_incisors(rig, mouth):
-    t = _pose(rig, {"tongue_tip_up": 0.9, "jaw_open": 0.15})        # viseme_DD
+    t = _pose(rig, {"tongue_tip_up": 0.9, "jaw_open": 0.13})        # viseme_DD
     world = _apply(t["tongue"], mouth["tongue"])
     tip = world[0]                                                   # the front pole of the tongue
     assert tip[2] > mouth["upper_edge"] + 0.006                       # up at the alveolar ridge

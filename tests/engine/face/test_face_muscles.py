@@ -57,15 +57,20 @@ def test_procerus_pulls_the_glabella_down(rig):
 
 
 def test_orbicularis_oris_closes_the_lips_and_protrudes_them(rig):
+    """The lips rest closed (issue 10); with the jaw a little open they part, and the orbicularis oris
+    closes them again against it (ARKit jawOpen + mouthClose, a bilabial after an open vowel)."""
     rest = rig.template.skin.vertices * MM
     upper = rig.template.skin.contours["lips_inner_upper"]
     lower = rig.template.skin.contours["lips_inner_lower"]
     middle = slice(len(upper) // 2 - 3, len(upper) // 2 + 4)
-    gap_rest = np.abs(rest[upper[middle], 2] - rest[lower[middle], 2]).max()
-    d = displacement(rig, {"orbicularis_oris_upper": 1.0, "orbicularis_oris_lower": 1.0})
-    pos = rest + d
-    gap = np.abs(pos[upper[middle], 2] - pos[lower[middle], 2]).max()
-    assert gap_rest > 4.0 and gap < 1.0                   # the inner lip contours meet
+
+    def gap(controls):
+        pos = rest + displacement(rig, controls)
+        return (pos[upper[middle], 2] - pos[lower[middle], 2]).max()
+    assert np.abs(rest[upper[middle], 2] - rest[lower[middle], 2]).max() < 0.5      # closed at rest
+    apart = gap({"jaw_open": 0.15})
+    closed = gap({"jaw_open": 0.15, "orbicularis_oris_upper": 1.0, "orbicularis_oris_lower": 1.0})
+    assert apart > 4.0 and closed < 1.0                   # the inner lip contours meet
     d = displacement(rig, {"orbicularis_oris_protrusion": 1.0})
     assert d[0, 1] < -2.0 and d[17, 1] < -2.0 and d[13, 1] < -2.5   # lips forward (-Y)
     d = displacement(rig, {"orbicularis_oris_protrusion": -1.0})
