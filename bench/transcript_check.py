@@ -75,7 +75,8 @@ ESPEAK_VOICES = ["en-us", "en-us+f3", "en", "en-us+m3"]
 ADDED = ["yesterday", "purple", "quietly", "elephant", "certainly", "banana", "tonight"]
 SNRS = {"clean": None, "20dB": 20.0, "10dB": 10.0}
 #: the transcript check's warnings that name words (a false alarm on a correct transcript)
-WORD_WARNINGS = ("do not match", "not in the transcript", "not in the recording", "far longer")
+WORD_WARNINGS = ("do not match", "not in the transcript", "not in the recording", "far longer",
+                 "missing from the transcript")
 
 
 def festival(text: str, wav: Path) -> Path:

@@ -19,8 +19,9 @@ silences), then phone by phone (second pass, ``set_alignment``), exactly as its 
 * Corrupt, zero-length, too short, silent or non-speech audio (a flat level:
   ``transcript_check.refuse_non_speech``) raise :class:`UserError`. The transcript is checked word
   by word against free phone recognition over the same frames (``transcript_check``): an unrelated
-  transcript is refused, words that do not match and speech the transcript lacks are named in
-  ``Utterance.warnings``.
+  transcript is refused; words that do not match, words the recording lacks and, per word boundary,
+  words the transcript lacks (``missing_words``) are named in ``Utterance.warnings``. The two free phone
+  decodes this needs run in a second process beside the forced passes (``phone_loop``).
 """
 from __future__ import annotations
 
@@ -33,7 +34,7 @@ from ..core.errors import UserError
 from .audio import as_mono, load_audio, to_analysis_rate, to_int16
 from .emoticons import extract_emoticons
 from .phonemes import SILENCE, from_arpabet, is_vowel, to_arpabet
-from . import transcript_check
+from . import missing_words, phone_loop, transcript_check
 from .pitch import track_pitch
 from .utterance import Phone, Utterance, WordDraft, assemble_utterance, token_spans
 
@@ -104,15 +105,8 @@ def align_audio(audio, transcript: str | None = None, *, sample_rate: int | None
     return _force_align(ps, pcm, samples, rate, duration, pitch, text, cleaned, tags, language)
 
 
-def _free_phones(ps, pcm: bytes, **options) -> list[tuple[str, int, int, float]]:
-    """Free phone recognition (allphone, the bundled en-us phone model): ``(phone, start, end, score)``."""
-    decoder = transcript_check.free_phone_decoder(ps, **options)
-    _decode(decoder, pcm)
-    return transcript_check.segments(decoder)
-
-
 def _recognise_phones(ps, pcm, samples, rate, duration, pitch, text, tags, language) -> Utterance:
-    free = _free_phones(ps, pcm, lw=transcript_check.RECOGNITION_LW)
+    free = phone_loop.decode(ps, pcm, lw=transcript_check.RECOGNITION_LW)
     transcript_check.check_recognised(free, pcm)
     phones, _ = _tile([(name, a * FRAME, (b + 1) * FRAME, 0, -1) for name, a, b, _ in free], duration)
     warnings = ["no transcript: phones were recognised without words, which is less accurate; "
@@ -174,7 +168,8 @@ def _decoder_with_words(ps, beams: dict, words: list[tuple[str, str]]):
 
 
 def _alignment_entries(alignment, word_count: int) -> list[tuple]:
-    """(phone, start s, end s, 0, word index or -1 for silence) of pocketsphinx's phone alignment."""
+    """(phone, start s, end s, 0, word index or -1 for silence, first frame, frames, score) of
+    pocketsphinx's phone alignment."""
     entries = []
     token = 0
     for entry in alignment:
@@ -182,11 +177,13 @@ def _alignment_entries(alignment, word_count: int) -> list[tuple]:
         if name in ("<s>", "</s>", "<sil>") or token >= word_count:
             for phone_entry in entry:
                 entries.append(("SIL", phone_entry.start * FRAME,
-                                (phone_entry.start + phone_entry.duration) * FRAME, 0, -1))
+                                (phone_entry.start + phone_entry.duration) * FRAME, 0, -1,
+                                phone_entry.start, phone_entry.duration, float(phone_entry.score)))
             continue
         for phone_entry in entry:
             entries.append((phone_entry.name, phone_entry.start * FRAME,
-                            (phone_entry.start + phone_entry.duration) * FRAME, 0, token))
+                            (phone_entry.start + phone_entry.duration) * FRAME, 0, token,
+                            phone_entry.start, phone_entry.duration, float(phone_entry.score)))
         token += 1
     return entries
 
@@ -221,34 +218,20 @@ def _force_align(ps, pcm, samples, rate, duration, pitch, text, cleaned, tags, l
         warnings.append("not in the dictionary, pronounced by espeak-ng: " + ", ".join(added))
 
     texts = [cleaned[a:b] for a, b in spans]
-    free = None
-    for beams in _BEAMS:
-        if beams:
-            decoder = _decoder_with_words(ps, beams, decoder_words)
-        try:
-            decoder.set_align_text(" ".join(keys))
-        except RuntimeError as exc:
-            raise UserError(f"pocketsphinx cannot align this transcript ({exc})") from None
+    # the two free phone decodes (confidence reference, recognition) run beside the forced passes
+    with phone_loop.PhoneLoops(ps, pcm, [{}, {"lw": transcript_check.RECOGNITION_LW}]) as loops:
+        decoder, fit, soft, free = _checked_alignment(ps, pcm, decoder, keys, decoder_words, texts, loops)
+        decoder.set_alignment()
         _decode(decoder, pcm)
-        if decoder.hyp() is not None:
-            if free is None:
-                free = _free_phones(ps, pcm)
-            fit = transcript_check.measure(decoder, free, pcm, texts)
-            soft = transcript_check.soft_path(ps, pcm, keys, decoder_words, fit.words, beams)
-            transcript_check.judge_with_soft(fit, soft)  # refuses a transcript that does not match
-            expected = _expected_durations(cleaned, spans, "en-us" if english else voice)
-            warnings.extend(transcript_check.named_warnings(fit, soft, expected))
-            break
-    else:
-        raise UserError("the transcript does not match the audio (no alignment reaches the end of the "
-                        "audio); check the words, or leave the transcript empty for phone recognition")
-    decoder.set_alignment()
-    _decode(decoder, pcm)
-    alignment = decoder.get_alignment()
-    if alignment is None:
-        raise UserError("the transcript does not match the audio (phone alignment failed)")
+        alignment = decoder.get_alignment()
+        if alignment is None:
+            raise UserError("the transcript does not match the audio (phone alignment failed)")
+        entries = _alignment_entries(alignment, len(spans))
+        expected = _expected_durations(cleaned, spans, "en-us" if english else voice)
+        warnings.extend(transcript_check.named_warnings(fit, soft))
+        warnings.extend(_missing_words(pcm, fit, soft, entries, free, loops.result(1), expected))
 
-    phones, tokens = _tile(_alignment_entries(alignment, len(spans)), duration)
+    phones, tokens = _tile([entry[:5] for entry in entries], duration)
     token_phones: dict[int, list[int]] = {}
     for i, t in enumerate(tokens):
         if t >= 0:
@@ -259,6 +242,42 @@ def _force_align(ps, pcm, samples, rate, duration, pitch, text, cleaned, tags, l
     return assemble_utterance(text=text, language=language, samples=samples, sample_rate=rate,
                               phones=phones, words=drafts, emotions=tags, pitch=pitch,
                               source="alignment", warnings=warnings)
+
+
+def _checked_alignment(ps, pcm: bytes, decoder, keys: list[str], decoder_words, texts: list[str], loops):
+    """The word-level forced alignment with ``decoder`` (default beams), then wider beams, checked against
+    free phone recognition (``loops.result(0)``; ``transcript_check``: refuses a transcript that does not
+    match). Returns the decoder (for the phone pass), the words' fit, the soft transcript's path and the
+    free phone path."""
+    for beams in _BEAMS:
+        if beams:
+            decoder = _decoder_with_words(ps, beams, decoder_words)
+        try:
+            decoder.set_align_text(" ".join(keys))
+        except RuntimeError as exc:
+            raise UserError(f"pocketsphinx cannot align this transcript ({exc})") from None
+        _decode(decoder, pcm)
+        if decoder.hyp() is not None:
+            free = loops.result(0)
+            fit = transcript_check.measure(decoder, free, pcm, texts)
+            soft = transcript_check.soft_path(ps, pcm, keys, decoder_words, fit.words, beams)
+            transcript_check.judge_with_soft(fit, soft)
+            return decoder, fit, soft, free
+    raise UserError("the transcript does not match the audio (no alignment reaches the end of the "
+                    "audio); check the words, or leave the transcript empty for phone recognition")
+
+
+def _missing_words(pcm: bytes, fit, soft, entries, free, recognition, expected) -> list[str]:
+    """Warnings naming the word boundaries where the transcript seems to lack a word (``missing_words``:
+    the calibrated model over the phone alignment ``entries``, the ``free`` phone path, phone
+    ``recognition`` and durations), except next to words the ``soft`` path names as not spoken."""
+    phones = [missing_words.PhoneSeg(token, name, start, frames, score)
+              for name, _, _, _, token, start, frames, score in entries if token >= 0]
+    recognised = [name for name, _, _, _ in recognition if not transcript_check.is_filler(name)]
+    loud = transcript_check.loud_frames(pcm, len(pcm) // (2 * transcript_check.HOP))
+    features = missing_words.boundary_features(fit.words, phones, free, recognised, expected, loud)
+    return missing_words.missing_word_warnings(fit.words, fit.texts, features, missing_words.load_model(),
+                                               transcript_check.named_tokens(fit, soft))
 
 
 def _expected_durations(text: str, spans, voice: str) -> list[float | None]:

@@ -15,10 +15,12 @@ from faces_hands_addon.face.expressions import load_expressions
 from faces_hands_addon.face.rig import build_default_rig
 from faces_hands_addon.hand import presets as hand_presets  # noqa: F401  (registers the hand formats)
 from faces_hands_addon.morph import population as morph_population  # noqa: F401  (registers the morph formats)
+from faces_hands_addon.speech import missing_words  # noqa: F401  (registers the transcript check's format)
 from faces_hands_addon.speech.articulation import class_controls, load_articulation
 
 FORMATS = {"expressions": "faces_hands.expressions", "face/landmarks": "faces_hands.face_landmarks",
-           "face/muscles": "faces_hands.face_muscles", "speech": "faces_hands.speech_targets",
+           "face/muscles": "faces_hands.face_muscles", "speech/transcript_check": "faces_hands.transcript_check",
+           "speech": "faces_hands.speech_targets",
            "morph/segments": "faces_hands.morph_segments", "morph/population": "faces_hands.morph_population",
            "morph/attributes": "faces_hands.morph_attributes",
            "hand/joints": "faces_hands.hand_joints", "hand/muscles": "faces_hands.hand_muscles",
@@ -34,9 +36,12 @@ def _format_of(relative: str) -> str:
 
 @pytest.fixture
 def user_folder(tmp_path):
+    """The preset override folder set to ``tmp_path``; afterwards the folder the session had (the add-on
+    sets one at registration: leaving None behind broke the preferences test in the same process)."""
+    before = presets.user_folder()
     presets.set_user_folder(tmp_path)
     yield tmp_path
-    presets.set_user_folder(None)
+    presets.set_user_folder(before)
 
 
 def test_every_shipped_preset_has_a_header_and_validates(built_extension):

@@ -162,11 +162,12 @@ def test_contractions_outside_0_1_in_a_preset_are_refused(rig, tmp_path):
     doc["poses"]["fist"]["contractions"]["flexor_digitorum_profundus_index"] = 1.5
     (tmp_path / "hand").mkdir()
     (tmp_path / "hand" / "poses.json").write_text(json.dumps(doc))
+    before = presets.user_folder()
     presets.set_user_folder(tmp_path)
     try:
         with pytest.raises(UserError, match=r"1.5 is outside \[0, 1\]"):
             motion.pose_contractions("fist", rig.muscle_names)
     finally:
-        presets.set_user_folder(None)
+        presets.set_user_folder(before)
     with pytest.raises(UserError, match="unknown hand muscle"):
         motion.checked_contractions({"biceps": 0.5}, rig.muscle_names, "test")

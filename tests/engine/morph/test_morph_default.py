@@ -52,9 +52,10 @@ def test_a_broken_user_preset_is_refused_by_name(tmp_path):
     shipped = (presets.SHIPPED_FOLDER / "morph" / "segments.json").read_text(encoding="utf-8")
     (tmp_path / "morph").mkdir()
     (tmp_path / "morph" / "segments.json").write_text(shipped.replace('"nose tip": [4, 1, 19]', '"nose tip": [4, 1, 9999]'))
+    before = presets.user_folder()
     presets.set_user_folder(tmp_path)
     try:
         with pytest.raises(UserError, match="segments.json: seeds of 'nose tip' index vertices outside"):
             population.sample_population(count=10)
     finally:
-        presets.set_user_folder(None)
+        presets.set_user_folder(before)
