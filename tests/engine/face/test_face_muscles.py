@@ -139,9 +139,9 @@ def _reference_deform(m, contraction, protrusion, jaw):
     def carry(points):
         return points @ jaw[:3, :3].T + jaw[:3, 3]
     contraction, protrusion = np.clip(contraction, 0.0, 1.0), float(np.clip(protrusion, -1.0, 1.0))
-    on_jaw = m.bone == 1
-    carried = m.rest.copy()
-    carried[on_jaw] = carry(m.rest[on_jaw])
+    share = m.jaw_carry[:, None]                   # each point goes this share of the way with the jaw
+    carried = m.rest + share * (carry(m.rest) - m.rest)
+    on_jaw = m.jaw_carry > 0.5
     normal = m.normal.copy()
     normal[on_jaw] = m.normal[on_jaw] @ jaw[:3, :3].T
     points, own = carried.copy(), np.ones(len(m.rest))
@@ -154,9 +154,13 @@ def _reference_deform(m, contraction, protrusion, jaw):
             col = np.arange(cols)[None, :]
             t = np.clip((target - s[seg, col]) / np.maximum(s[seg + 1, col] - s[seg, col], 1e-12), 0, 1)[..., None]
             flat = (rest[seg, col] * (1 - t) + rest[seg + 1, col] * t).reshape(-1, 3)
-            flat[on_jaw[sl]] = carry(flat[on_jaw[sl]])
+            flat += share[sl] * (carry(flat) - flat)
             points[sl], own[sl] = flat, 1.0 - c * spec.max_shortening
-        elif spec.kind != "linear" and m.centres[index] is not None:
+    for sources, targets, fade, axes in m.pushes:      # bunched tissue pushes what lies beyond it
+        points[targets] += fade[:, None] * ((points[sources] - carried[sources]).mean(axis=0) * axes)
+    for index, spec in enumerate(m.specs):
+        sl, (rows, cols), c = m.slice(index), m.shapes[index], contraction[index]
+        if spec.kind != "linear" and m.centres[index] is not None:
             oris = spec.group == "oris"
             centre = 0.5 * (m.centres[index] + carry(m.centres[index][None])[0]) if oris else m.centres[index]
             axes = m.mouth_axes if oris else np.eye(3)
@@ -168,7 +172,8 @@ def _reference_deform(m, contraction, protrusion, jaw):
             local[..., 2] *= sz
             if oris and protrusion != 0.0:
                 travel = spec.protrusion[0] if protrusion > 0 else spec.protrusion[1]
-                local[..., 1] -= protrusion * travel * np.linspace(1.0, 0.0, cols)[None, :]
+                outer = 0.0 if protrusion > 0 else 0.5         # pulled back, the outer fibre goes half as far
+                local[..., 1] -= protrusion * travel * np.linspace(1.0, outer, cols)[None, :]
             points[sl] = (local @ axes + centre).reshape(-1, 3)
             own[sl] = np.broadcast_to(0.5 * (sx + sz), (rows, cols)).ravel()
     before, moved = points.copy(), points.copy()
