@@ -8,21 +8,32 @@ together, as a real one does, until they touch. Without contact the ring and lit
 pulled to their Table 6.4 adduction limits and their phalanx axes came within 3-5 mm of their neighbours'
 (a finger is 16-20 mm wide): the curled fingers ran into each other.
 
-After each frame of the pseudo-muscle dynamics (Eq. 6.7), the fingers are kept side by side: along the
-direction ``u`` from a finger's MCP joint centre to its ulnar neighbour's (across the palm, as posed), every
-sample of a finger's phalanx axes (from ``BASE``
-of the proximal phalanx to the tip) must lie at least ``SPACING`` times the distance of the two MCP joint
-centres (a finger's width in the reference hand, 15-17 mm; it scales with a warped hand) ulnar of the same
-sample (same bone, same fraction) of its radial neighbour, where the two samples are closer than that at
-all (a curled finger under a straight one is apart). A signed side-by-side distance, not the distance
-of the closest points: a finger that crossed over is pushed back to its own side, not further through.
+After each frame of the pseudo-muscle dynamics (Eq. 6.7), the fingers are kept side by side. Every sample of
+a finger's phalanx axes (from ``BASE`` of the proximal phalanx to the tip) and every sample of its ulnar
+neighbour's that are closer than ``REACH`` contact distances must lie at least the contact distance apart
+(``SPACING`` times the distance of the two MCP joint centres: a finger's width in the reference hand, 15-17
+mm; it scales with a warped hand), and the ulnar one on its own side: their offset across the fingers (along
+``u``, the mean of the two proximal phalanges' posed flexion axes, towards the ulnar finger) must be at least
+``sqrt(d^2 - a^2)``, ``a`` being the rest of the offset (along the fingers and through the palm). A signed
+distance: a finger that crossed over is pushed back to its own side, not further through; two samples apart
+along the fingers (a little finger curled inside the ring finger's curl) need little offset across them. In
+the web the same holds, with ``KNUCKLE`` instead of ``SPACING``, between the radial finger's proximal
+phalanx, from the MCP joint on, and its neighbour's matching samples and MCP centre (the little finger's MCP
+lies 9 mm nearer the palm than the ring finger's, under the flexed ring finger's base).
+
+Before, the offset was measured along the line between the two MCP centres, of matching samples only (same
+bone, same fraction): at rest that line runs 47 degrees off the two flexion axes for the ring and little
+fingers (22 for the middle and ring, 7.5 for the index and middle), so a curled little finger counted as
+crossing the ring finger and was turned out of the fist to its rotation limit (a loop beside the fist, its tip
+24 mm from the ring finger's in the fist, point and thumbs up; now 15-16 mm, beside the ring finger).
+
 Where a pair is too close, both fingers' MCP abductions and rotations turn by the smallest amounts that
-restore it: the lateral distance changes by ``u . (w x (p - c)) dtheta`` for a finger turned about the DOF's
-axis ``w`` through its MCP centre ``c`` (a curled finger's tip lies near its abduction axis, so only the
-rotation, which tilts the curl, moves it sideways); within the Table 6.4 limits, all pairs at once, a few
-linearised sweeps per frame. A finger's abduction speed into the contact is removed (as at a joint limit); the rotation
-follows flexion again in the next frame (:mod:`.pseudo`) and is corrected again. Deterministic; no other
-DOF moves; ``enabled = False`` leaves the muscles alone (Solve Contractions' checks balance muscles only).
+restore it: the offset changes by ``u . (w x (p - c)) dtheta`` for a finger turned about the DOF's axis ``w``
+through its MCP centre ``c`` (a curled finger's tip lies near its abduction axis, so only the rotation, which
+tilts the curl, moves it sideways); within the Table 6.4 limits, all pairs at once, a few linearised sweeps per
+frame. A finger's abduction speed into the contact is removed (as at a joint limit); the rotation follows
+flexion again in the next frame (:mod:`.pseudo`) and is corrected again. Deterministic; no other DOF moves;
+``enabled = False`` leaves the muscles alone (Solve Contractions' checks balance muscles only).
 """
 from __future__ import annotations
 
@@ -31,14 +42,15 @@ import numpy as np
 from .pseudo import PseudoMuscles
 from .skeleton import Skeleton, rotation_matrices
 
-__all__ = ["FingerContact", "SPACING", "BASE", "CONTACT_FINGERS"]
+__all__ = ["FingerContact", "SPACING", "KNUCKLE", "BASE", "CONTACT_FINGERS"]
 
 SPACING = 0.98           # neighbouring phalanx axes at least this share of their MCP joints' distance apart
+KNUCKLE = 0.87            # in the web: the radial proximal phalanx and its neighbour's MCP centre (module docstring)
 BASE = 0.4               # the proximal phalanx's first 40 % lie in the web, where the MCP spacing decides
 CONTACT_FINGERS = ("index", "middle", "ring", "pinky")
 SWEEPS = 6
 TOLERANCE = 2e-4         # m of shortfall left alone (a fifth of a millimetre)
-SETTLED = 1e-3           # m: after a first sweep, shortfalls below a millimetre wait for the next frame
+SETTLED = 5e-4           # m: after a first sweep, shortfalls below half a millimetre wait for the next frame
 REACH = 1.5              # samples further apart than this many contact distances do not touch
 MAX_TURN = np.radians(6.0)   # per sweep: a deep overlap resolves over a few sweeps, the linearisation holds
 PARTS = ("proximal", "intermediate", "distal")
@@ -72,6 +84,10 @@ class FingerContact:
             rest.append(np.concatenate(points))
             owner.append(np.repeat(bones, samples))
         self.rest = np.array(rest)                      # (fingers, samples, 3) on the rest axes
+        knuckle = [skeleton.position[b[0]] + s * (skeleton.tail[b[0]] - skeleton.position[b[0]]) for b in self.bones]
+        self.knuckle_rest = np.array(knuckle)           # (fingers, samples, 3) along the whole proximal phalanx
+        k = np.arange(samples)
+        self.knuckle_pairs = (np.r_[k, k[1:]], np.r_[k, np.zeros(samples - 1, int)])
         self.owner = np.array(owner)                    # (fingers, samples) bone of each sample
         self.mcp = np.array([bones[0] for bones in self.bones])
         self.parents = skeleton.parent[self.mcp]
@@ -81,6 +97,8 @@ class FingerContact:
         self.flexion_sign = np.array([skeleton.dofs[k].sign for k in self.flexion])
         self._flat_dofs = flat
         self._last = None
+        axes = self.frames[:, :, 0]
+        self.ulnar_sign = np.sign(np.einsum("pi,pi->p", axes[1:] + axes[:-1], np.diff(mcp, axis=0)))
 
     def _axes(self, transforms: np.ndarray, angles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """World axes (fingers, 2, 3) of the MCP abduction and rotation (signed like the DOFs; the joint
@@ -103,44 +121,71 @@ class FingerContact:
         return self.skeleton.bone_transforms(angles)
 
     def _sides(self, angles: np.ndarray):
+        """Bone transforms, posed samples (fingers, samples + knuckle samples, 3) and each pair's direction
+        across the fingers (pairs, 3): the mean of the two proximal phalanges' posed flexion axes, towards the
+        ulnar finger."""
         transforms = self.skeleton.bone_transforms(angles)
         self._last = (angles.copy(), transforms)
         m = transforms[self.owner]
         points = np.einsum("fsij,fsj->fsi", m[..., :3, :3], self.rest) + m[..., :3, 3]
         m = transforms[self.mcp]
-        centres = np.einsum("fij,fj->fi", m[:, :3, :3], self.skeleton.position[self.mcp]) + m[:, :3, 3]
-        across = np.diff(centres, axis=0)
-        return transforms, points, across / np.linalg.norm(across, axis=1, keepdims=True)
+        points = np.concatenate([points, np.einsum("fij,fsj->fsi", m[:, :3, :3], self.knuckle_rest)
+                                 + m[:, None, :3, 3]], axis=1)
+        across = np.einsum("fij,fj->fi", m[:, :3, :3], self.frames[:, :, 0])
+        across = across[1:] + across[:-1]
+        return transforms, points, across * (self.ulnar_sign / np.linalg.norm(across, axis=1))[:, None]
+
+    def _shortfalls(self, angles: np.ndarray):
+        """Transforms, samples, directions across (:meth:`_sides`) and the shortfalls (pairs, S x S + K) from
+        side by side (module docstring): every sample of a finger against every sample of its ulnar neighbour,
+        then the ``K`` knuckle pairs (the radial proximal phalanx against its neighbour's matching samples and
+        MCP centre); -inf where samples are far apart."""
+        transforms, points, across = self._sides(angles)
+        n, first, second = self.rest.shape[1], *self.knuckle_pairs
+        between = points[1:, None, :n, :] - points[:-1, :n, None, :]
+        short = self._short(between.reshape(len(between), -1, 3), across, self.distance)
+        base = points[1:, n + second] - points[:-1, n + first]
+        knuckle = self._short(base, across, KNUCKLE / SPACING * self.distance)
+        return transforms, points, across, np.concatenate([short, knuckle], axis=1)
+
+    @staticmethod
+    def _short(between: np.ndarray, across: np.ndarray, distance: np.ndarray) -> np.ndarray:
+        """Shortfall (pairs, K) of sample offsets ``between`` (pairs, K, 3) from lying ``distance`` (pairs,)
+        apart on their own sides across the fingers; -inf where they are far apart."""
+        limit = distance[:, None]
+        lateral = np.einsum("pkj,pj->pk", between, across)
+        square = np.einsum("pkj,pkj->pk", between, between)
+        needed = np.sqrt(np.maximum(limit ** 2 - (square - lateral ** 2), 0.0))
+        return np.where(square < (REACH * limit) ** 2, needed - lateral, -np.inf)
 
     def gaps(self, angles: np.ndarray) -> np.ndarray:
-        """Smallest side-by-side distance (m, module docstring) of each neighbouring pair."""
-        _, points, ulnar = self._sides(angles)
-        out = []
-        for f in range(len(points) - 1):
-            between = points[f + 1] - points[f]
-            lateral = between @ ulnar[f]
-            out.append(np.min(np.where(np.linalg.norm(between, axis=1) < REACH * self.distance[f], lateral, np.inf)))
-        return np.minimum(np.array(out), self.distance)
+        """Each neighbouring pair's contact distance less its largest shortfall (m): at least the distance when
+        the pair is side by side (module docstring)."""
+        short = self._shortfalls(angles)[3]
+        return self.distance - np.maximum(short.max(axis=1), 0.0)
 
     def _rows(self, angles: np.ndarray):
-        """The pairs that are too close: (shortfalls (P,), Jacobian (P, 2 x fingers) of their side-by-side
-        distances over every finger's MCP abduction and rotation)."""
-        transforms, points, ulnar = self._sides(angles)
-        between = points[1:] - points[:-1]                   # matching samples: same bone, same fraction
-        lateral = np.einsum("psi,pi->ps", between, ulnar)
-        lateral[np.einsum("psi,psi->ps", between, between) >= (REACH * self.distance[:, None]) ** 2] = np.inf
-        worst = np.argmin(lateral, axis=1)
-        pairs = np.arange(len(between))
-        shorts = self.distance - lateral[pairs, worst]
+        """The pairs that are too close: (shortfalls (P,), Jacobian (P, 2 x fingers) of their worst samples'
+        offset across the fingers over every finger's MCP abduction and rotation)."""
+        transforms, points, across, short = self._shortfalls(angles)
+        worst = np.argmax(short, axis=1)
+        pairs = np.arange(len(short))
+        shorts = short[pairs, worst]
         close = np.flatnonzero(shorts > TOLERANCE)
         if len(close) == 0:
             return shorts[close], np.zeros((0, 2 * len(points)))
         axes, centres = self._axes(transforms, angles)
         rows = np.zeros((len(close), 2 * len(points)))
+        n = self.rest.shape[1]
         for r, a in enumerate(close):
-            for finger, sign in ((a, -1.0), (a + 1, 1.0)):
-                lever = _cross(axes[finger], points[finger][worst[a]] - centres[finger])
-                rows[r, 2 * finger:2 * finger + 2] = sign * (lever @ ulnar[a])
+            w = int(worst[a])
+            if w < n * n:
+                i, j = divmod(w, n)
+            else:
+                i, j = (n + v[w - n * n] for v in self.knuckle_pairs)
+            for finger, sign, k in ((a, -1.0, i), (a + 1, 1.0, j)):
+                lever = _cross(axes[finger], points[finger][k] - centres[finger])
+                rows[r, 2 * finger:2 * finger + 2] = sign * (lever @ across[a])
         return shorts[close], rows
 
     def resolve(self) -> bool:

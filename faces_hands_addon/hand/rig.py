@@ -31,7 +31,7 @@ from ..core.errors import UserError
 from ..core.rig import Pose, read_rig_archive, write_rig_archive
 from . import HAND_RIG_FORMAT
 from .contact import FingerContact
-from .crease import Creases, bone_radii
+from .crease import Creases, FingerSides, bone_radii
 from .geometric import build_geometric_muscles
 from .network import HandMaterial, build_hand_network
 from .photo import photo_warp
@@ -93,6 +93,7 @@ class HandRig:
         self._weights = sparse.csr_matrix(template.skin.weights)
         self.creases = Creases(sk, template.skin.vertices, template.skin.weights,
                                bone_radii(sk, template.skin.vertices, template.skin.weights))
+        self.sides = FingerSides(sk, template.skin.vertices, template.skin.weights)
         self._rest = template.skin.vertices.copy()
         self.controls = {name: spec.default for name, spec in self.specs.items()}
         self.identity = ""
@@ -158,13 +159,14 @@ class HandRig:
     # -- simulation ------------------------------------------------------------------------------
     def attachment_targets(self, transforms: np.ndarray, contraction: np.ndarray) -> np.ndarray:
         """Bone-carried (linear blend of the bone transforms) rest positions plus the muscles' bulge, with the
-        flexion creases kept apart (N, 3)."""
+        flexion creases and the facing sides of neighbouring fingers kept apart (N, 3)."""
         flat = transforms[:, :3, :].reshape(len(transforms), 12)
         blended = (self._weights @ flat).reshape(-1, 3, 4)
         target = np.einsum("nij,nj->ni", blended[:, :, :3], self._rest) + blended[:, :, 3]
         surface, bulge = self.geometric.surface(transforms, contraction)
         self._surface, self._surface_key = surface, self.pseudo.angles.tobytes() + contraction.tobytes()
-        return self.creases.apply(target + self.geometric.skin_displacement(bulge), transforms)
+        target = self.creases.apply(target + self.geometric.skin_displacement(bulge), transforms)
+        return self.sides.apply(target, transforms)
 
     def step_frame(self, dt: float = 1 / 30) -> None:
         if not (dt > 0 and np.isfinite(dt)):

@@ -10,9 +10,11 @@ one closed-up surface the spring network can use.
    sheet (an unwelded seam would open under the springs). UVs are kept per face corner.
 3. *Refine*: the longest edges are split (:func:`..core.refine.split_long_edges`) until the network has about
    the thesis' 1500 nodes.
-4. *Shape*: fingers, thumb and thenar eminence are given rounded sections round their bones
+4. *Forearm end*: the asset's flat cap, whose rim zig-zagged, is replaced by a rounded end
+   (:mod:`.skin_end`).
+5. *Shape*: fingers, thumb and thenar eminence are given rounded sections round their bones
    (:mod:`.skin_shape`); folds left where the asset's webs meet the new sections are smoothed away.
-5. *Clearance*: skin that lies closer to a bone than ``CLEARANCE`` is pushed out along its normal, so the
+6. *Clearance*: skin that lies closer to a bone than ``CLEARANCE`` is pushed out along its normal, so the
    bones stay inside the hand. On a thin web the normals disagree from node to node, so the push folds it
    (notches that turned into pockets, light through the finger bases, in the spread pose): the folds it left
    are relaxed once more afterwards (the web keeps its clearance; tests/engine/hand/test_hand_webs.py).
@@ -31,6 +33,7 @@ from .. import assets
 from ..core import geometry, refine
 from ..physics import RBFWarp
 from .skeleton import TIP_NAMES, Skeleton
+from .skin_end import round_forearm_end
 from .skin_shape import relax_folds, shape_skin, smooth_field, web_membrane
 
 __all__ = ["SkinMesh", "fit_reference_skin", "TARGET_NODES", "CLEARANCE"]
@@ -159,6 +162,7 @@ def fit_reference_skin(skeleton: Skeleton, target_nodes: int = TARGET_NODES) -> 
     new_index, kept = _weld(vertices, faces)
     vertices, weights, faces = vertices[kept], weights[kept], new_index[faces]
     vertices, faces, corner_uvs, weights = _refine(vertices, faces, corner_uvs, weights, target_nodes)
+    vertices, faces, corner_uvs, weights = round_forearm_end(vertices, faces, corner_uvs, weights, skeleton)
     weights /= weights.sum(axis=1, keepdims=True)
     vertices = web_membrane(shape_skin(vertices, faces, weights, skeleton), faces, weights, skeleton)
     on_fingers = np.isin(weights.argmax(axis=1), [b for b, n in enumerate(skeleton.names) if "phalanx" in n])

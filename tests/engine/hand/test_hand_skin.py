@@ -62,6 +62,24 @@ def test_the_finger_bases_have_no_folds(rig):
     assert sum(on_fingers) <= 8          # (the asset's own zigzag at the wrist rim is not counted)
 
 
+def test_the_forearm_ends_in_a_smooth_dome(rig):
+    # the asset's flat cap had a saw-tooth rim (alternate rim nodes 7 and 21 mm above the wrist joint, edges
+    # folded 100-109 degrees; the highest node 20 mm off the axis); now no edge of the skin above the wrist
+    # folds past 60 degrees (49 now) and the end's highest point is near the forearm's axis (a dome: 3.9 mm off)
+    skin = rig.template.skin
+    origin = rig.skeleton.position[rig.skeleton.index["wrist"]]
+    axis = rig.skeleton.position[rig.skeleton.index["forearm"]] - origin
+    axis /= np.linalg.norm(axis)
+    height = (skin.vertices - origin) @ axis
+    normals = geometry.face_normals(skin.vertices, skin.faces)
+    up = np.flatnonzero((height[skin.faces] > 0).all(axis=1))
+    pairs = [(i, j) for i in up for j in up if i < j and len(set(skin.faces[i]) & set(skin.faces[j])) == 2]
+    cos = [normals[i] @ normals[j] for i, j in pairs]
+    assert len(pairs) > 100 and np.degrees(np.arccos(min(cos))) < 60.0
+    top = skin.vertices[np.argmax(height)] - origin
+    assert np.linalg.norm(top - (top @ axis) * axis) < 0.006          # 20 mm before; the forearm is 45 mm across
+
+
 def test_the_skin_stays_outside_the_bones(rig):
     sk, skin = rig.skeleton, rig.template.skin
     for name in sk.names[1:]:
