@@ -147,6 +147,22 @@ def _mirrored(positions, triangles, barycentric, hit, vertices, faces, template,
     return positions, np.flatnonzero(skin)[tri], barycentric, True
 
 
+def _refuse_loose_fit(rms: float, face_width: float, matched_fraction: float, choice, shown) -> None:
+    """Raise :class:`.FitRefused` when the registration stayed far from the mesh (``MAX_RMS_FRACTION`` of
+    the face width) or too few landmarks found its surface (``MIN_MATCHED_FRACTION``); ``shown`` is
+    (vertices, faces, landmark positions, similarity) for the refusal's preview."""
+    if not (not face_width > 0 or rms > MAX_RMS_FRACTION * face_width or matched_fraction < MIN_MATCHED_FRACTION):
+        return
+    vertices, faces, positions, similarity = shown
+    raise FitRefused(
+        f"could not fit the face template to this mesh: RMS distance {100 * rms / max(face_width, 1e-30):.1f} % "
+        f"of the face width (limit {100 * MAX_RMS_FRACTION:.0f} %), {100 * matched_fraction:.0f} % of the "
+        f"landmarks found the surface (need {100 * MIN_MATCHED_FRACTION:.0f} %) with the face looking "
+        f"{choice.name}; check that the mesh is a human face (give its axes with --forward/--up), or "
+        "place the landmarks by hand", vertices, faces, positions, similarity.rotation.T,
+        orientation=choice.report())
+
+
 def locate_landmarks(target_vertices, target_faces, *, seed: int = 0, progress=None, forward: str | None = None,
                      up: str | None = None, check: bool = True) -> LandmarkFit:
     """Locate the 468 MediaPipe landmarks on a head mesh in any axis orientation, at any scale and position.
@@ -207,14 +223,7 @@ def locate_landmarks(target_vertices, target_faces, *, seed: int = 0, progress=N
     on_skin = ~hit.on_border          # landmarks over openings / off a mask's edge do not count
     rms = float(np.sqrt(np.mean(distances[on_skin] ** 2))) if on_skin.any() else float("inf")
     max_distance = float(distances[on_skin].max()) if on_skin.any() else float("inf")
-    if not face_width > 0 or rms > MAX_RMS_FRACTION * face_width or matched_fraction < MIN_MATCHED_FRACTION:
-        raise FitRefused(
-            f"could not fit the face template to this mesh: RMS distance {100 * rms / max(face_width, 1e-30):.1f} % "
-            f"of the face width (limit {100 * MAX_RMS_FRACTION:.0f} %), {100 * matched_fraction:.0f} % of the "
-            f"landmarks found the surface (need {100 * MIN_MATCHED_FRACTION:.0f} %) with the face looking "
-            f"{choice.name}; check that the mesh is a human face (give its axes with --forward/--up), or "
-            "place the landmarks by hand", vertices, faces, positions, similarity.rotation.T,
-            orientation=choice.report())
+    _refuse_loose_fit(rms, face_width, matched_fraction, choice, (vertices, faces, positions, similarity))
     positions, triangles, barycentric = _lids_on_openings(positions, hit, vertices, faces, template)
     positions, triangles, barycentric, symmetric = _mirrored(positions, triangles, barycentric, hit, vertices,
                                                              faces, template, face_width)
