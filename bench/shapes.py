@@ -5,7 +5,8 @@ and how sure each target is: ``bench/shape_targets.md``). Prints one table and a
 
 Run: ``FH_TEST_FROM_SOURCE=1 python bench/shapes.py`` (engine from the working tree, default head),
 ``python bench/shapes.py`` (the installed extension, like ``make bench``), ``--rig RIG.npz`` (a rig saved
-by the engine, a fitted one included) or ``--blend RIG.blend`` (every face rig object in a saved .blend;
+by the engine, a fitted one included), ``--fit HEAD.npz`` (a head mesh, ``vertices`` and ``faces``, fitted
+here with ``build_fitted_rig(seed=0)``, e.g. tests/data/heads/*.npz) or ``--blend RIG.blend`` (every face rig object in a saved .blend;
 needs the bpy module). ``--names a,b`` audits a subset, ``--json PATH`` writes every figure.
 """
 from __future__ import annotations
@@ -57,6 +58,18 @@ def _rigs(args) -> list[tuple[str, object]]:
         if not found:
             sys.exit(f"{args.blend}: no face rig object")
         return found
+    if args.fit:
+        from faces_hands_addon.face.fitted import build_fitted_rig
+        out = []
+        for path in args.fit:
+            data = np.load(path)
+            started = time.perf_counter()
+            rig = build_fitted_rig(data["vertices"].astype(np.float64), data["faces"].astype(np.int64), seed=0)
+            print(f"fitted {Path(path).name} in {time.perf_counter() - started:.0f} s; warnings: {rig.warnings}")
+            if args.save_rig:
+                rig.save(Path(args.save_rig) / f"{Path(path).stem}.npz")
+            out.append((Path(path).stem, rig))
+        return out
     if args.rig:
         from faces_hands_addon.core.rig import load_rig
         return [(Path(args.rig).name, load_rig(args.rig))]
@@ -103,6 +116,8 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--blend", help="audit every face rig object in this .blend (needs bpy)")
     parser.add_argument("--rig", help="audit a rig saved by the engine (.npz)")
+    parser.add_argument("--fit", nargs="+", help="fit these head meshes (.npz with vertices, faces) and audit them")
+    parser.add_argument("--save-rig", help="with --fit: save each fitted rig (.npz) into this folder")
     parser.add_argument("--resolution", default="default", help="default head resolution (default | 10k)")
     parser.add_argument("--names", help="comma-separated subset of shape names")
     parser.add_argument("--json", help="write every figure to this JSON file")

@@ -54,6 +54,7 @@ from .transfer import CARRIERS, MeshTransfer, transfer_to_mesh
 __all__ = ["FittedFaceRig", "FittedHead", "build_fitted_rig", "fit_head", "check_mesh", "MAX_VERTICES"]
 
 MAX_VERTICES = 500_000
+SYMMETRY_SNAP = 0.0003     # m in head space: landmarks this close to mirror-symmetric are made exactly so
 LANDMARK_COUNT = 468
 
 
@@ -90,6 +91,19 @@ def _check_landmarks(landmarks) -> np.ndarray:
         raise UserError(f"landmarks must be {LANDMARK_COUNT} finite 3D points, one per canonical-face vertex "
                         f"(got shape {landmarks.shape}); re-run the landmark fit")
     return landmarks
+
+
+def _symmetric_within(landmarks: np.ndarray, tolerance: float) -> np.ndarray:
+    """Head-space landmarks that are mirror images of each other to within ``tolerance`` (m; a symmetric
+    head's landmarks, :mod:`..fitting.symmetry`) made exactly so, so that the template built on them is
+    (:func:`.template.build_template` symmetrises bones and attachments of a symmetric skin); others as
+    they are."""
+    from .template import canonical_mirror
+    mirror = canonical_mirror()
+    mirrored = landmarks[mirror] * np.array([-1.0, 1.0, 1.0])
+    if np.max(np.linalg.norm(landmarks - mirrored, axis=1)) > tolerance:
+        return landmarks
+    return 0.5 * (landmarks + mirrored)
 
 
 def _transform(matrix: np.ndarray, points: np.ndarray) -> np.ndarray:
@@ -151,7 +165,7 @@ def fit_head(vertices, faces, landmarks=None, *, seed: int = 0, progress=None, r
     to_head = similarity_transform(landmarks, canonical)
     head_to_mesh = np.linalg.inv(to_head)
     head_vertices = _transform(to_head, vertices)
-    head_landmarks = _transform(to_head, landmarks)
+    head_landmarks = _symmetric_within(_transform(to_head, landmarks), SYMMETRY_SNAP)
     # -- 3. template on the registered canonical face -------------------------------------------------------
     source = build_template(resolution, replace(inputs, canonical_vertices=head_landmarks, closed_lips=False))
     # -- 4. transfer onto the artist's mesh ------------------------------------------------------------------

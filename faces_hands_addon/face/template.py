@@ -39,7 +39,8 @@ from .skull_fit import BoneFit, fit_bones, parse_landmarks
 
 CLOSED_LIP_COVER = 0.0025    # m the closed lips' line lies above the upper incisal edge (lower lip over the edge)
 
-__all__ = ["TemplateInputs", "SkinRecord", "OrganRecord", "HeadTemplate", "build_template", "default_inputs"]
+__all__ = ["TemplateInputs", "SkinRecord", "OrganRecord", "HeadTemplate", "build_template", "default_inputs",
+           "canonical_mirror"]
 
 
 @dataclass
@@ -162,7 +163,7 @@ def _muscle_stage(canonical: np.ndarray, inputs: TemplateInputs, skin: SkinMesh,
     """Muscle grids from the muscle preset placed under the skin (3.1.2 "Building Muscles")."""
     mirror = geometry.mirror_map(canonical, tolerance=1e-3 * np.ptp(canonical[:, 0]))
     if np.any(mirror < 0):           # a registered (asymmetric) face: the canonical topology's own L/R map
-        mirror = _canonical_mirror()
+        mirror = canonical_mirror()
     specs, connections = parse_muscle_specs(inputs.muscles_json, mirror)
     positive_depth = np.maximum(bone_part["bone_depth"], 0.0)
     if node_mirror is not None:
@@ -228,7 +229,7 @@ def _thickness_field(canonical: np.ndarray, landmarks, nodes: np.ndarray) -> np.
     return (w * depth[idx]).sum(1) / w.sum(1)
 
 
-def _canonical_mirror() -> np.ndarray:
+def canonical_mirror() -> np.ndarray:
     """Left/right vertex map of the MediaPipe canonical face (from the symmetric asset): the map belongs to
     the topology, so it also serves a canonical face registered onto an asymmetric head."""
     from .. import assets

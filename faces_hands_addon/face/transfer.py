@@ -59,6 +59,9 @@ OPENING_RATIO = 1.8     # path over the skin / straight distance above which the
 NONE, UPPER, LOWER = 0, 1, 2
 CARRIERS = ("eye_L", "eye_R", "teeth_upper", "teeth_lower", "tongue")   # rigid parts a separate piece can ride
 PART_REACH = 0.008      # m: a piece within this of a rigid part (most of its vertices) rides that part
+LINING_LIP = 0.005      # m over the lining from the line where the lips meet: the lips' inner surface
+LINING_PATH = 0.03      # m: longest stretch of that line between two of its vertices
+LINING_SHARE = 0.25     # a "lining" larger than this share of the face is no mouth pocket: left alone
 
 
 def fade(distance: np.ndarray, start: float, end: float) -> np.ndarray:
@@ -89,6 +92,7 @@ class MeshTransfer:
     eye_margins: dict[str, np.ndarray] = field(default_factory=dict)   # "eye_L_upper"...: (k, 3) points, +X
     openings: dict[str, bool] = field(default_factory=dict)            # "mouth", "eye_L", "eye_R"
     warnings: list[str] = field(default_factory=list)
+    lining: np.ndarray | None = None    # vertex ids of the artist's mouth lining (:func:`_mouth_lining`)
 
 
 def _closest(template: HeadTemplate, vertices: np.ndarray, allowed: np.ndarray | None = None):
@@ -215,6 +219,8 @@ def transfer_to_mesh(template: HeadTemplate, vertices: np.ndarray, faces: np.nda
         d_margin = dijkstra(graph, indices=margins, min_only=True, limit=MOUTH_REGION)
         transfer.mouth_region |= (d_margin < MOUTH_REGION) & (face_weight > 0.5)
     _openings(transfer, graph, vertices, faces, landmarks, nearest_vertex, contours)
+    _mouth_lining(transfer, graph, nearest_vertex(landmarks[[contours["lips_outer_upper"][0],
+                                                             contours["lips_outer_upper"][-1]]]))
     return transfer
 
 
@@ -260,6 +266,55 @@ def _lip_margins(transfer: MeshTransfer, template: HeadTemplate, vertices: np.nd
         gap, k = cKDTree(vertices[on_side]).query(contour)
         margin = np.union1d(margin, on_side[k[gap < 0.003]])
         transfer.lip_margins[name] = margin[np.argsort(vertices[margin, 0], kind="stable")]
+
+
+def _margin_loop(graph, upper: np.ndarray, lower: np.ndarray, corners: np.ndarray) -> np.ndarray:
+    """The vertices of the closed line where the lips meet: corner, upper margin, other corner, lower margin
+    back, joined by shortest paths over the skin."""
+    def path(a: int, b: int) -> list[int]:
+        _, previous = dijkstra(graph, indices=a, return_predecessors=True, limit=LINING_PATH)
+        out = [b]
+        while out[-1] != a and out[-1] >= 0:
+            out.append(int(previous[out[-1]]))
+        return out if out[-1] == a else []
+    loop: list[int] = []
+    for margin in (upper, lower):
+        stops = [int(corners[0]), *(int(v) for v in margin), int(corners[1])]
+        for a, b in zip(stops[:-1], stops[1:]):
+            if a != b:
+                loop += path(a, b)
+    return np.unique(np.asarray(loop, np.int64))
+
+
+def _mouth_lining(transfer: MeshTransfer, graph, corners: np.ndarray) -> None:
+    """The artist's mouth lining: a head modelled with its mouth as a pocket behind the lips (MakeHuman,
+    SOMA-X: the lips run on into a closed mouth, the mesh's only hole is at the neck) has skin behind the
+    line where the lips meet that the template's closest points can call outer skin, above all at the
+    commissures, where the pocket reaches sideways past the template's mouth bag. Cut along that line
+    (the lip margins, closed at the mouth corners ``corners``: the mesh vertices at the outer lip contour's
+    ends); what the cut separates from the face is the lining: within ``LINING_LIP`` of the line the lips'
+    inner surface (the template's ``lip_inner``), deeper the ``mouth_bag`` (thesis 3.1.2 "Skin": the lining is
+    not the visible surface; it is soft, unguarded and not pushed out by the cheeks' air pressure). A mouth
+    modelled as a hole has nothing behind its rim and keeps its groups."""
+    from .skin import GROUPS
+    upper, lower = transfer.lip_margins.get("lips_inner_upper"), transfer.lip_margins.get("lips_inner_lower")
+    if upper is None or lower is None or not len(upper) or not len(lower):
+        return
+    loop = _margin_loop(graph, upper, lower, corners)
+    keep = np.ones(graph.shape[0], bool)
+    keep[loop] = False
+    cut = graph[keep][:, keep]
+    count, component = connected_components(cut, directed=False)
+    index = np.flatnonzero(keep)
+    face = transfer.face_weight[index] > 0.5
+    main = int(np.argmax(np.bincount(component, face, count)))
+    pocket = index[component != main]
+    if not len(pocket) or len(pocket) > LINING_SHARE * np.count_nonzero(transfer.face_weight > 0.5):
+        return
+    depth = dijkstra(graph, indices=loop, min_only=True, limit=2 * LINING_LIP)[pocket]
+    groups = transfer.groups[pocket] & ~(GROUPS["surface"] | GROUPS["lip_inner"] | GROUPS["mouth_bag"])
+    transfer.groups[pocket] = groups | np.where(depth < LINING_LIP, GROUPS["lip_inner"], GROUPS["mouth_bag"])
+    transfer.lining = pocket
 
 
 def _openings(transfer: MeshTransfer, graph, vertices: np.ndarray, faces: np.ndarray, landmarks: np.ndarray,

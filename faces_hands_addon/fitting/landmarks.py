@@ -14,7 +14,9 @@ automatically by registering the canonical face onto the target:
 4. each fitted template vertex is projected onto the target triangles: (triangle, barycentric) per
    landmark, so markers can be re-projected after the artist drags them (:func:`.project_to_surface`);
 5. the lid landmarks, which nothing holds over an eye opening, are moved onto the edges of the mesh's eye
-   openings seen from the front (:mod:`.eye_openings`).
+   openings seen from the front (:mod:`.eye_openings`);
+6. on a head that is its own mirror image the landmarks are made mirror images of each other
+   (:mod:`.symmetry`), so the rig moves both halves alike.
 """
 from __future__ import annotations
 
@@ -29,6 +31,7 @@ from .quality import FitRefused, check_fit, refusal
 from ..core.geometry import checked_mesh, triangle_normals
 from .eye_openings import main_piece, snap_lids
 from .surface import TargetSurface, project_to_surface
+from .symmetry import symmetric_landmarks, symmetry_plane
 from .template import LEFT_TRAGUS, RIGHT_TRAGUS, face_template
 
 __all__ = ["LandmarkFit", "locate_landmarks", "MAX_RMS_FRACTION", "MIN_MATCHED_FRACTION"]
@@ -69,6 +72,7 @@ class LandmarkFit:
     warnings: tuple = field(default=())
     orientation: dict = field(default_factory=dict)
     checks: tuple = field(default=())
+    symmetric: bool = False
 
     @property
     def rms_fraction(self) -> float:
@@ -127,6 +131,36 @@ def _lids_on_openings(positions, hit, vertices, faces, template):
         positions[ids], tri, barycentric[ids] = project_to_surface(moved[ids], vertices, faces[skin])
         triangles[ids] = np.flatnonzero(skin)[tri]
     return positions, triangles, barycentric
+
+
+def _mirrored(positions, triangles, barycentric, hit, vertices, faces, template, face_width):
+    """Step 6: on a mirror-symmetric head, each landmark averaged with its partner's reflection and projected
+    onto the main skin piece (:mod:`.symmetry`); the positions, triangles, barycentrics and whether it
+    applied."""
+    left = template.vertices[:, 0] > 0.0
+    skin = main_piece(faces, hit.triangles)
+    plane = symmetry_plane(positions, template.mirror, left, vertices, faces[skin], face_width)
+    if not plane.symmetric:
+        return positions, triangles, barycentric, False
+    positions, tri, barycentric = project_to_surface(symmetric_landmarks(positions, template.mirror, plane),
+                                                     vertices, faces[skin])
+    return positions, np.flatnonzero(skin)[tri], barycentric, True
+
+
+def _refuse_loose_fit(rms: float, face_width: float, matched_fraction: float, choice, shown) -> None:
+    """Raise :class:`.FitRefused` when the registration stayed far from the mesh (``MAX_RMS_FRACTION`` of
+    the face width) or too few landmarks found its surface (``MIN_MATCHED_FRACTION``); ``shown`` is
+    (vertices, faces, landmark positions, similarity) for the refusal's preview."""
+    if not (not face_width > 0 or rms > MAX_RMS_FRACTION * face_width or matched_fraction < MIN_MATCHED_FRACTION):
+        return
+    vertices, faces, positions, similarity = shown
+    raise FitRefused(
+        f"could not fit the face template to this mesh: RMS distance {100 * rms / max(face_width, 1e-30):.1f} % "
+        f"of the face width (limit {100 * MAX_RMS_FRACTION:.0f} %), {100 * matched_fraction:.0f} % of the "
+        f"landmarks found the surface (need {100 * MIN_MATCHED_FRACTION:.0f} %) with the face looking "
+        f"{choice.name}; check that the mesh is a human face (give its axes with --forward/--up), or "
+        "place the landmarks by hand", vertices, faces, positions, similarity.rotation.T,
+        orientation=choice.report())
 
 
 def locate_landmarks(target_vertices, target_faces, *, seed: int = 0, progress=None, forward: str | None = None,
@@ -189,15 +223,10 @@ def locate_landmarks(target_vertices, target_faces, *, seed: int = 0, progress=N
     on_skin = ~hit.on_border          # landmarks over openings / off a mask's edge do not count
     rms = float(np.sqrt(np.mean(distances[on_skin] ** 2))) if on_skin.any() else float("inf")
     max_distance = float(distances[on_skin].max()) if on_skin.any() else float("inf")
-    if not face_width > 0 or rms > MAX_RMS_FRACTION * face_width or matched_fraction < MIN_MATCHED_FRACTION:
-        raise FitRefused(
-            f"could not fit the face template to this mesh: RMS distance {100 * rms / max(face_width, 1e-30):.1f} % "
-            f"of the face width (limit {100 * MAX_RMS_FRACTION:.0f} %), {100 * matched_fraction:.0f} % of the "
-            f"landmarks found the surface (need {100 * MIN_MATCHED_FRACTION:.0f} %) with the face looking "
-            f"{choice.name}; check that the mesh is a human face (give its axes with --forward/--up), or "
-            "place the landmarks by hand", vertices, faces, positions, similarity.rotation.T,
-            orientation=choice.report())
+    _refuse_loose_fit(rms, face_width, matched_fraction, choice, (vertices, faces, positions, similarity))
     positions, triangles, barycentric = _lids_on_openings(positions, hit, vertices, faces, template)
+    positions, triangles, barycentric, symmetric = _mirrored(positions, triangles, barycentric, hit, vertices,
+                                                             faces, template, face_width)
     if check:
         report(0.95, "checking the fit")
     checks = _quality_gate(positions, vertices, faces, seed, similarity, choice) if check else []
@@ -208,5 +237,6 @@ def locate_landmarks(target_vertices, target_faces, *, seed: int = 0, progress=N
         max_distance=max_distance, matched_fraction=matched_fraction, face_width=face_width,
         search_score=float(match.score), rigid_scale=float(similarity.scale * unit),
         rigid_rotation=similarity.rotation.copy(), rigid_translation=similarity.translation * unit + centre,
-        seed=int(seed), warnings=tuple(warnings), orientation=choice.report(), checks=tuple(checks))
+        seed=int(seed), warnings=tuple(warnings), orientation=choice.report(), checks=tuple(checks),
+        symmetric=symmetric)
 
