@@ -40,6 +40,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core import geometry
+from ..core.blas import one_blas_thread
 from ..core.errors import UserError
 from ..core.rig import write_rig_archive
 from . import FITTED_FACE_RIG_FORMAT
@@ -137,7 +138,16 @@ class FittedHead:
 def fit_head(vertices, faces, landmarks=None, *, seed: int = 0, progress=None, resolution: str = "default",
              inputs: TemplateInputs | None = None, forward: str | None = None, up: str | None = None) -> FittedHead:
     """Run stages 1-4 plus the network template (module docstring). ``forward``/``up`` name the mesh's
-    axes for the automatic landmark location (:func:`..fitting.locate_landmarks`; default: searched)."""
+    axes for the automatic landmark location (:func:`..fitting.locate_landmarks`; default: searched).
+    On one BLAS thread (:mod:`..core.blas`): the same mesh gives the same rig on any number of cores."""
+    with one_blas_thread():
+        return _fit_head(vertices, faces, landmarks, seed=seed, progress=progress, resolution=resolution,
+                         inputs=inputs, forward=forward, up=up)
+
+
+def _fit_head(vertices, faces, landmarks, *, seed: int, progress, resolution: str, inputs: TemplateInputs | None,
+              forward: str | None, up: str | None) -> FittedHead:
+    """:func:`fit_head` (module docstring, stages 1-4 plus the network template)."""
     def report(fraction: float, message: str) -> None:
         if progress is not None:
             progress(float(fraction), message)

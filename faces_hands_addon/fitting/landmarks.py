@@ -28,6 +28,7 @@ from .align import scaled_rigid_icp
 from .nicp import affine_icp, nonrigid_icp, plane_refinement
 from .orientation import choose_orientation
 from .quality import FitRefused, check_fit, refusal
+from ..core.blas import one_blas_thread
 from ..core.geometry import checked_mesh, triangle_normals
 from .eye_openings import main_piece, snap_lids
 from .surface import TargetSurface, project_to_surface
@@ -174,8 +175,17 @@ def locate_landmarks(target_vertices, target_faces, *, seed: int = 0, progress=N
     ``target_faces`` are triangles ((M, 3) indices). ``progress(fraction, message)`` is called now and
     then. Raises :class:`UserError` for unusable meshes (no faces, NaN, degenerate, too large), a mesh
     facing another way (with the rotation to apply), or a failed fit (see ``MAX_RMS_FRACTION``).
-    Deterministic for a given ``seed`` (it seeds the surface sampling of the face search).
+    Deterministic for a given ``seed`` (it seeds the surface sampling of the face search), also on
+    machines with other core counts: it runs on one BLAS thread (:mod:`..core.blas`).
     """
+    with one_blas_thread():
+        return _locate(target_vertices, target_faces, seed=seed, progress=progress, forward=forward, up=up,
+                       check=check)
+
+
+def _locate(target_vertices, target_faces, *, seed: int, progress, forward: str | None, up: str | None,
+            check: bool) -> LandmarkFit:
+    """:func:`locate_landmarks` with whatever BLAS threads the process has."""
     def report(fraction: float, message: str) -> None:
         if progress is not None:
             progress(float(fraction), message)
