@@ -45,8 +45,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import cho_factor, solve_triangular
 from scipy.optimize import lsq_linear, nnls
-from threadpoolctl import ThreadpoolController
-
+from ..core.blas import one_blas_thread
 from ..core.errors import UserError
 from ..physics import kernel
 
@@ -55,14 +54,6 @@ __all__ = ["TargetBasis", "WeightFit", "WeightSolver", "fit_weights", "stack_pos
 REGULARISATION = 1e-9      # relative to the Gram matrix's mean diagonal: equal targets share weight evenly
 PRIOR_STRENGTH = 0.3       # lambda: measured on speech, residual median +0.1 mm, L1 distance to the prior / 4
 BOX_ROUNDS = 30            # active-set rounds of the compiled solver before a frame falls back to bounded_nnls
-_THREADS: list[ThreadpoolController] = []
-
-
-def _one_blas_thread():
-    """A context in which the BLAS libraries loaded into this process use one thread (module docstring)."""
-    if not _THREADS:
-        _THREADS.append(ThreadpoolController())
-    return _THREADS[0].limit(limits=1, user_api="blas")
 
 
 @dataclass(frozen=True)
@@ -293,7 +284,7 @@ class _Stage:
             matrix = np.vstack([matrix, root * np.eye(count)])
             rhs = np.vstack([rhs, root * prior[rows].T])
         out = np.zeros((frames, count))
-        with _one_blas_thread():
+        with one_blas_thread():
             out[rows] = self._solve_rows(np.ascontiguousarray(matrix), np.ascontiguousarray(rhs.T))
         return out
 

@@ -1,5 +1,7 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""One BLAS thread for work whose result must not depend on how many cores the machine has.
+"""One BLAS thread, for work whose result must not depend on how many cores the machine has, and for loops
+of tiny problems where a threaded BLAS spends longer waking its threads than computing (the per-frame
+weight fit, :mod:`..anim.weights`).
 
 A multi-threaded BLAS splits its sums differently for different thread counts, so a product or a solve
 rounds differently on a 2-core and a 16-core machine. Most results only move in the last bits, but a
