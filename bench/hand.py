@@ -8,6 +8,10 @@ the mass-spring substeps and the output pose (skin positions, muscle surfaces, 2
 the contractions change every frame (a motion preset, Hermite-interpolated). Frames are 1/30 s (and 1/60 s
 for comparison with the thesis' real-time rate). Ends with one ``RESULT fps=...`` line (1/30 s frames).
 
+Two paths, measured in the same run: the one the live preview in Blender takes (an interactive session loads
+the compiled physics kernel, so the skin substeps and the finger contact's sweeps run compiled; ``fps``) and
+the numpy reference path that a short batch command takes when loading numba would not pay (``fps_numpy``).
+
 Run: ``make bench`` (installed extension), or ``FH_TEST_FROM_SOURCE=1 python bench/hand.py`` (working tree).
 """
 from __future__ import annotations
@@ -31,12 +35,16 @@ import numpy as np  # noqa: E402
 
 from faces_hands_addon.hand import motion  # noqa: E402
 from faces_hands_addon.hand.rig import build_hand_rig  # noqa: E402
+from faces_hands_addon.physics import kernel  # noqa: E402
 
 THESIS_FPS = 60.0
 
 
-def simulated_fps(rig, dt: float, repeats: int = 3) -> tuple[float, float]:
-    """Best-of-``repeats`` frames per second over the 'showcase' motion at frame length ``dt``; ms per frame."""
+def simulated_fps(rig, dt: float, repeats: int = 3, compiled: bool = True) -> tuple[float, float]:
+    """Best-of-``repeats`` frames per second over the 'showcase' motion at frame length ``dt``; ms per frame.
+    ``compiled``: the live path (compiled kernel when numba is loaded), else the numpy reference path."""
+    rig.hand.integrator.backend = "auto" if compiled else "numpy"
+    rig.contact.backend = "auto" if compiled else "numpy"
     times, table = motion.motion_table("showcase", rig.muscle_names, 1.0 / dt)
     layers = [{"ctrl": dict(zip(rig.muscle_names, row))} for row in table]
     best = np.inf
@@ -50,6 +58,8 @@ def simulated_fps(rig, dt: float, repeats: int = 3) -> tuple[float, float]:
 
 
 def main() -> None:
+    kernel.set_interactive(True)          # as the live preview in Blender: the compiled kernel pays there
+    compiled = kernel.substep_kernel() is not None
     started = time.perf_counter()
     rig = build_hand_rig()
     build_s = time.perf_counter() - started
@@ -62,8 +72,12 @@ def main() -> None:
     fps60, ms60 = simulated_fps(rig, 1 / 60)
     print(f"1/60 s frames: {rig.hand.integrator.substeps_for(1 / 60)} skin substeps, {ms60:.2f} ms per frame, "
           f"{fps60:.0f} simulated frames/s ({fps60 / THESIS_FPS:.1f}x the thesis' 60 fps)")
-    print(f"RESULT fps={fps30:.0f} fps_60hz={fps60:.0f} ms_per_frame={ms30:.3f} nodes={net.node_count} "
-          f"springs={net.springs.count} thesis_ratio={fps60 / THESIS_FPS:.1f}")
+    fps_numpy, ms_numpy = simulated_fps(rig, 1 / 30, compiled=False)
+    print(f"path: {'compiled kernel (numba), as live in Blender' if compiled else 'numpy (numba not importable)'}; "
+          f"numpy reference path, 1/30 s frames: {ms_numpy:.2f} ms per frame, {fps_numpy:.0f} frames/s")
+    print(f"RESULT fps={fps30:.0f} fps_60hz={fps60:.0f} fps_numpy={fps_numpy:.0f} ms_per_frame={ms30:.3f} "
+          f"compiled={int(compiled)} nodes={net.node_count} springs={net.springs.count} "
+          f"thesis_ratio={fps60 / THESIS_FPS:.1f}")
 
 
 if __name__ == "__main__":

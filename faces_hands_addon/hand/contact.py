@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .contact_kernel import compiled_sweeps
 from .pseudo import PseudoMuscles
 from .skeleton import Skeleton, rotation_matrices
 
@@ -69,6 +70,8 @@ class FingerContact:
     def __init__(self, skeleton: Skeleton, pseudo: PseudoMuscles, distance: float | None = None, samples: int = 6):
         self.skeleton, self.pseudo = skeleton, pseudo
         self.enabled = True
+        #: "auto": the compiled sweep (:mod:`.contact_kernel`) once the physics kernel is loaded; "numpy": never
+        self.backend = "auto"
         self.bones = [[skeleton.index[f"{f}-finger-phalanx-{p}"] for p in PARTS] for f in CONTACT_FINGERS]
         mcp = skeleton.position[[bones[0] for bones in self.bones]]
         spacing = np.linalg.norm(np.diff(mcp, axis=0), axis=1)
@@ -97,56 +100,71 @@ class FingerContact:
         self.flexion_sign = np.array([skeleton.dofs[k].sign for k in self.flexion])
         self._flat_dofs = flat
         self._last = None
+        self._frozen: dict = {}
         axes = self.frames[:, :, 0]
         self.ulnar_sign = np.sign(np.einsum("pi,pi->p", axes[1:] + axes[:-1], np.diff(mcp, axis=0)))
 
-    def _axes(self, transforms: np.ndarray, angles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """World axes (fingers, 2, 3) of the MCP abduction and rotation (signed like the DOFs; the joint
-        turns ``F Rx Ry Rz F^T``, :mod:`.skeleton`) and the MCP centres (fingers, 3)."""
-        count = len(self.mcp)
-        flex = rotation_matrices(np.tile([1.0, 0.0, 0.0], (count, 1)), angles[self.flexion] * self.flexion_sign)
-        abd = rotation_matrices(np.tile([0.0, 1.0, 0.0], (count, 1)), angles[self._flat_dofs[:, 0]] * self.signs[:, 0])
-        world = transforms[self.parents][:, :3, :3] @ self.frames
-        abduction = (world @ flex)[:, :, 1] * self.signs[:, :1]
-        rotation = (world @ flex @ abd)[:, :, 2] * self.signs[:, 1:]
-        centre = np.einsum("fij,fj->fi", transforms[self.parents][:, :3, :3], self.skeleton.position[self.mcp]) \
-            + transforms[self.parents][:, :3, 3]
-        return np.stack([abduction, rotation], axis=1), centre
-
     def transforms(self, angles: np.ndarray) -> np.ndarray:
         """The bone transforms of ``angles``: the ones the last contact check computed when the joints have not
-        moved since (usually the case after :meth:`resolve`), else forward kinematics."""
+        moved since, else forward kinematics."""
         if self._last is not None and np.array_equal(self._last[0], angles):
             return self._last[1]
-        return self.skeleton.bone_transforms(angles)
-
-    def _sides(self, angles: np.ndarray):
-        """Bone transforms, posed samples (fingers, samples + knuckle samples, 3) and each pair's direction
-        across the fingers (pairs, 3): the mean of the two proximal phalanges' posed flexion axes, towards the
-        ulnar finger."""
         transforms = self.skeleton.bone_transforms(angles)
-        self._last = (angles.copy(), transforms)
+        self._last = (np.array(angles, np.float64), transforms)
+        return transforms
+
+    def _freeze(self, angles: np.ndarray) -> None:
+        """What stays fixed while only the MCP abductions and rotations turn (one forward kinematics per
+        :meth:`resolve`, not one per sweep): each finger's parent transform ``P``, its MCP centre ``c``, the
+        flexion turn, and every sample in its proximal phalanx's rest coordinates ``y`` (the intermediate and
+        distal phalanges ride on the proximal one), so a sweep poses the samples as ``P (R (y - c) + c)``
+        with ``R = F Rx Ry Rz F^T`` the MCP joint's rotation (:meth:`.Skeleton.local_rotations`)."""
+        transforms = self.transforms(angles)
         m = transforms[self.owner]
         points = np.einsum("fsij,fsj->fsi", m[..., :3, :3], self.rest) + m[..., :3, 3]
-        m = transforms[self.mcp]
-        points = np.concatenate([points, np.einsum("fij,fsj->fsi", m[:, :3, :3], self.knuckle_rest)
-                                 + m[:, None, :3, 3]], axis=1)
-        across = np.einsum("fij,fj->fi", m[:, :3, :3], self.frames[:, :, 0])
+        proximal = transforms[self.mcp]
+        rest = np.einsum("fji,fsj->fsi", proximal[:, :3, :3], points - proximal[:, None, :3, 3])
+        centre = self.skeleton.position[self.mcp]
+        parent = transforms[self.parents]
+        flex = rotation_matrices(np.tile([1.0, 0.0, 0.0], (len(self.mcp), 1)), angles[self.flexion] * self.flexion_sign)
+        world = parent[:, :3, :3] @ self.frames
+        self._frozen = {
+            "offset": np.concatenate([rest, self.knuckle_rest], axis=1) - centre[:, None, :],
+            "world_flex": world @ flex,
+            "centre": np.einsum("fij,fj->fi", parent[:, :3, :3], centre) + parent[:, :3, 3],
+            "held": np.delete(angles, self._flat_dofs.ravel())}
+
+    def _posed(self, angles: np.ndarray):
+        """Posed samples (fingers, samples + knuckle samples, 3), each pair's direction across the fingers
+        (pairs, 3): the mean of the two proximal phalanges' posed flexion axes, towards the ulnar finger; the
+        world axes (fingers, 2, 3) of the MCP abduction and rotation (signed like the DOFs) and the MCP centres
+        (fingers, 3). Uses the :meth:`_freeze` of the same angles but the MCP abductions and rotations."""
+        frozen = self._frozen
+        count = len(self.mcp)
+        abd = rotation_matrices(np.tile([0.0, 1.0, 0.0], (count, 1)), angles[self._flat_dofs[:, 0]] * self.signs[:, 0])
+        rot = rotation_matrices(np.tile([0.0, 0.0, 1.0], (count, 1)), angles[self._flat_dofs[:, 1]] * self.signs[:, 1])
+        turned = frozen["world_flex"] @ abd
+        posed = turned @ rot @ np.transpose(self.frames, (0, 2, 1))          # P R: the proximal phalanx's rotation
+        points = np.einsum("fij,fsj->fsi", posed, frozen["offset"]) + frozen["centre"][:, None, :]
+        across = np.einsum("fij,fj->fi", posed, self.frames[:, :, 0])
         across = across[1:] + across[:-1]
-        return transforms, points, across * (self.ulnar_sign / np.linalg.norm(across, axis=1))[:, None]
+        axes = np.stack([frozen["world_flex"][:, :, 1] * self.signs[:, :1], turned[:, :, 2] * self.signs[:, 1:]], axis=1)
+        across = across * (self.ulnar_sign / np.linalg.norm(across, axis=1))[:, None]
+        return points, across, axes, frozen["centre"]
 
     def _shortfalls(self, angles: np.ndarray):
-        """Transforms, samples, directions across (:meth:`_sides`) and the shortfalls (pairs, S x S + K) from
-        side by side (module docstring): every sample of a finger against every sample of its ulnar neighbour,
-        then the ``K`` knuckle pairs (the radial proximal phalanx against its neighbour's matching samples and
-        MCP centre); -inf where samples are far apart."""
-        transforms, points, across = self._sides(angles)
+        """Samples, directions across, MCP axes and centres (:meth:`_posed`) and the shortfalls (pairs,
+        S x S + K) from side by side (module docstring): every sample of a finger against every sample of its
+        ulnar neighbour, then the ``K`` knuckle pairs (the radial proximal phalanx against its neighbour's
+        matching samples and MCP centre); -inf where samples are far apart."""
+        self._frozen_for(angles)
+        points, across, axes, centres = self._posed(angles)
         n, first, second = self.rest.shape[1], *self.knuckle_pairs
         between = points[1:, None, :n, :] - points[:-1, :n, None, :]
         short = self._short(between.reshape(len(between), -1, 3), across, self.distance)
         base = points[1:, n + second] - points[:-1, n + first]
         knuckle = self._short(base, across, KNUCKLE / SPACING * self.distance)
-        return transforms, points, across, np.concatenate([short, knuckle], axis=1)
+        return points, across, axes, centres, np.concatenate([short, knuckle], axis=1)
 
     @staticmethod
     def _short(between: np.ndarray, across: np.ndarray, distance: np.ndarray) -> np.ndarray:
@@ -161,20 +179,40 @@ class FingerContact:
     def gaps(self, angles: np.ndarray) -> np.ndarray:
         """Each neighbouring pair's contact distance less its largest shortfall (m): at least the distance when
         the pair is side by side (module docstring)."""
-        short = self._shortfalls(angles)[3]
+        short = self._shortfalls(angles)[4]
         return self.distance - np.maximum(short.max(axis=1), 0.0)
+
+    def _compiled(self):
+        """``(contact_rows, resolve_sweeps)`` of :mod:`.contact_kernel` compiled, when the physics kernel is
+        loaded in this process (numba paid for already) and ``backend`` allows it; else ``None`` (numpy)."""
+        return None if self.backend == "numpy" else compiled_sweeps()
+
+    def _frozen_for(self, angles: np.ndarray) -> dict:
+        """:meth:`_freeze` unless it holds for ``angles`` already."""
+        if not np.array_equal(self._frozen.get("held"), np.delete(angles, self._flat_dofs.ravel())):
+            self._freeze(angles)
+        return self._frozen
 
     def _rows(self, angles: np.ndarray):
         """The pairs that are too close: (shortfalls (P,), Jacobian (P, 2 x fingers) of their worst samples'
         offset across the fingers over every finger's MCP abduction and rotation)."""
-        transforms, points, across, short = self._shortfalls(angles)
+        compiled = self._compiled()
+        if compiled is not None:
+            frozen, count = self._frozen_for(angles), len(self.mcp)
+            shorts, rows = np.empty(count - 1), np.empty((count - 1, 2 * count))
+            compiled[0](frozen["world_flex"], self.frames, frozen["offset"], frozen["centre"],
+                     angles[self._flat_dofs[:, 0]], angles[self._flat_dofs[:, 1]], self.signs, self.ulnar_sign,
+                     self.distance, self.knuckle_pairs[0], self.knuckle_pairs[1], self.rest.shape[1],
+                     KNUCKLE / SPACING, REACH, shorts, rows)
+            close = np.flatnonzero(shorts > TOLERANCE)
+            return shorts[close], rows[close]
+        points, across, axes, centres, short = self._shortfalls(angles)
         worst = np.argmax(short, axis=1)
         pairs = np.arange(len(short))
         shorts = short[pairs, worst]
         close = np.flatnonzero(shorts > TOLERANCE)
         if len(close) == 0:
             return shorts[close], np.zeros((0, 2 * len(points)))
-        axes, centres = self._axes(transforms, angles)
         rows = np.zeros((len(close), 2 * len(points)))
         n = self.rest.shape[1]
         for r, a in enumerate(close):
@@ -193,6 +231,13 @@ class FingerContact:
         the linearised contacts of all pairs at once: the smallest turn ``J^T lambda`` with ``lambda >= 0``
         that restores every shortfall, DOFs held at a limit taken out."""
         pseudo, moved, angles, dofs = self.pseudo, False, self.pseudo.angles, self._flat_dofs.ravel()
+        compiled = self._compiled() if self.enabled else None
+        if compiled is not None:
+            frozen = self._frozen_for(angles)
+            return bool(compiled[1](frozen["world_flex"], self.frames, frozen["offset"], frozen["centre"], self.signs,
+                                    self.ulnar_sign, self.distance, self.knuckle_pairs[0], self.knuckle_pairs[1],
+                                    self.rest.shape[1], KNUCKLE / SPACING, REACH, angles, pseudo.velocity, dofs,
+                                    pseudo.lower, pseudo.upper, SWEEPS, TOLERANCE, SETTLED, MAX_TURN))
         for _ in range(SWEEPS if self.enabled else 0):
             shorts, jac = self._rows(angles)
             if len(shorts) == 0 or (moved and shorts.max() < SETTLED):
