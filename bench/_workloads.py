@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["animated_controls"]
+__all__ = ["animated_controls", "record_split"]
 
 
 def animated_controls(frame: int) -> dict[str, float]:
@@ -16,3 +16,10 @@ def animated_controls(frame: int) -> dict[str, float]:
             "orbicularis_oris_upper": 0.3 * (1 - wave), "orbicularis_oris_lower": 0.3 * (1 - wave),
             "eyelid_close_L": float(frame % 48 < 4), "eyelid_close_R": float(frame % 48 < 4),
             "eye_yaw": 0.3 * np.sin(phase / 2)}
+
+
+def record_split(split: dict, stamps: list) -> None:
+    """Append each stage's milliseconds to ``split`` (stage -> list, in stage order) from the
+    ``time.perf_counter()`` ``stamps`` taken before the first stage and after each one."""
+    for key, start, end in zip(split, stamps, stamps[1:]):
+        split[key].append(1e3 * (end - start))

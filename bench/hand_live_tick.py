@@ -18,15 +18,14 @@ import os
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
-import statistics  # noqa: E402
 import sys  # noqa: E402
-import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import _harness  # noqa: E402
 
 import bpy  # noqa: E402
+from live_tick import measure  # noqa: E402
 
 from faces_hands_addon.hand import motion  # noqa: E402
 from faces_hands_addon.physics import kernel  # noqa: E402
@@ -34,54 +33,18 @@ from faces_hands_addon.physics import kernel  # noqa: E402
 FRAME_DT = 1.0 / 30.0
 
 
-def evaluate(obj) -> None:
-    """Blender's share: depsgraph evaluation (armature deform, shape keys) and the normals drawing needs."""
-    bpy.context.view_layer.update()
-    evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
-    evaluated.vertex_normals[0].vector
-
-
-def measure(obj, table, names, compiled: bool) -> dict:
-    ext = _harness.EXTENSION.operators
-    live, hook = ext.common.live, ext.hand.objects.push_hand_pose
-    rig_store, controls, poses = ext.common.rig_store, ext.common.controls, ext.common.poses
-    rig = rig_store.get_rig(obj)
+def measure_hand(obj, table, names, compiled: bool) -> dict:
+    """:func:`live_tick.measure` of the hand: the 'showcase' contractions, the hand's hook, the compiled
+    (``compiled``) or the numpy path."""
+    rig = _harness.EXTENSION.operators.common.rig_store.get_rig(obj)
     rig.hand.integrator.backend = rig.contact.backend = "auto" if compiled else "numpy"
     rig.reset()
 
-    def set_row(row):
-        for name, value in zip(names, row):
-            obj[f"fh.ctrl.{name}"] = float(value)
+    def set_row(target, frame):
+        for name, value in zip(names, table[frame]):
+            target[f"fh.ctrl.{name}"] = float(value)
 
-    for row in table[:3]:
-        set_row(row)
-        live.live_step(bpy.context, obj, hook, FRAME_DT)
-        evaluate(obj)
-    wall, cpu = [], []
-    for row in table:
-        set_row(row)
-        started, started_cpu = time.perf_counter(), time.process_time()
-        live.live_step(bpy.context, obj, hook, FRAME_DT)
-        evaluate(obj)
-        wall.append(1e3 * (time.perf_counter() - started))
-        cpu.append(1e3 * (time.process_time() - started_cpu))
-    split = {"step": [], "write": [], "depsgraph": []}
-    rig.reset()
-    for row in table:
-        set_row(row)
-        t0 = time.perf_counter()
-        rig = rig_store.get_rig(obj)
-        pose = rig.step(controls.layer_values(obj, rig.control_specs()), FRAME_DT)
-        t1 = time.perf_counter()
-        poses.push_pose(obj, pose)
-        hook(obj, rig)
-        t2 = time.perf_counter()
-        evaluate(obj)
-        t3 = time.perf_counter()
-        for key, (a, b) in {"step": (t0, t1), "write": (t1, t2), "depsgraph": (t2, t3)}.items():
-            split[key].append(1e3 * (b - a))
-    return {"ms": statistics.median(wall), "cpu_ms": statistics.median(cpu),
-            **{k: statistics.median(v) for k, v in split.items()}}
+    return measure(obj, len(table), set_row, _harness.EXTENSION.operators.hand.objects.push_hand_pose, FRAME_DT)
 
 
 def main() -> None:
@@ -99,9 +62,9 @@ def main() -> None:
     for label, use in (("compiled", True), ("numpy", False)):
         if use and not compiled:
             continue
-        f = measure(obj, table, names, use)
+        f = measure_hand(obj, table, names, use)
         print(f"{label:>8}: live tick {f['ms']:.2f} ms wall ({1e3 / f['ms']:.0f} fps), {f['cpu_ms']:.2f} ms CPU; "
-              f"split: step {f['step']:.2f} + write {f['write']:.2f} + depsgraph {f['depsgraph']:.2f} ms")
+              f"split: rig lookup {f['rig']:.3f} + step {f['step']:.2f} + write {f['write']:.2f} + depsgraph {f['depsgraph']:.2f} ms")
         suffix = "" if use else "_numpy"
         result.append(f"hand_live_tick_ms{suffix}={f['ms']:.2f} hand_live_fps{suffix}={1e3 / f['ms']:.0f} "
                       f"step_ms{suffix}={f['step']:.2f} write_ms{suffix}={f['write']:.2f} "

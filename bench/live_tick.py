@@ -32,7 +32,7 @@ import _harness  # noqa: E402
 
 import bpy  # noqa: E402
 import numpy as np  # noqa: E402
-from _workloads import animated_controls  # noqa: E402
+from _workloads import animated_controls, record_split  # noqa: E402
 
 from faces_hands_addon.physics import kernel  # noqa: E402
 
@@ -68,42 +68,46 @@ def evaluate(obj) -> None:
     evaluated.vertex_normals[0].vector
 
 
-def measure(obj, frames: int) -> dict:
+def _set_animated_controls(obj, frame: int) -> None:
+    for name, value in animated_controls(frame).items():
+        obj[f"fh.ctrl.{name}"] = float(value)
+
+
+def measure(obj, frames: int, set_controls=_set_animated_controls, hook=None, dt: float = FRAME_DT) -> dict:
+    """Median wall and CPU ms of ``frames`` live ticks (``set_controls(obj, frame)`` first, outside the
+    timing), then the split rig lookup / step / write (pose + ``hook``, default: the face's muscle display)
+    / depsgraph from a second pass of the same ticks."""
     ext = _harness.EXTENSION.operators
-    live, muscles = ext.common.live, ext.face.objects.update_muscle_display
+    live = ext.common.live
+    hook = ext.face.objects.update_muscle_display if hook is None else hook
     rig_store, controls, poses = ext.common.rig_store, ext.common.controls, ext.common.poses
     context = bpy.context
     for frame in range(3):
-        live.live_step(context, obj, muscles, FRAME_DT)
+        live.live_step(context, obj, hook, dt)
         evaluate(obj)
     total, cpu = [], []
     for frame in range(frames):
-        for name, value in animated_controls(frame).items():
-            obj[f"fh.ctrl.{name}"] = float(value)
+        set_controls(obj, frame)
         started, started_cpu = time.perf_counter(), time.process_time()
-        live.live_step(context, obj, muscles, FRAME_DT)
+        live.live_step(context, obj, hook, dt)
         evaluate(obj)
         total.append(1e3 * (time.perf_counter() - started))
         cpu.append(1e3 * (time.process_time() - started_cpu))
     split = {"rig": [], "step": [], "write": [], "depsgraph": []}
     for frame in range(frames):
-        for name, value in animated_controls(frame).items():
-            obj[f"fh.ctrl.{name}"] = float(value)
+        set_controls(obj, frame)
         t0 = time.perf_counter()
         rig = rig_store.get_rig(obj)
         t1 = time.perf_counter()
-        pose = rig.step(controls.layer_values(obj, rig.control_specs()), FRAME_DT)
+        pose = rig.step(controls.layer_values(obj, rig.control_specs()), dt)
         t2 = time.perf_counter()
         poses.push_pose(obj, pose)
-        muscles(obj, rig)
+        hook(obj, rig)
         t3 = time.perf_counter()
         evaluate(obj)
-        t4 = time.perf_counter()
-        for key, (a, b) in {"rig": (t0, t1), "step": (t1, t2), "write": (t2, t3), "depsgraph": (t3, t4)}.items():
-            split[key].append(1e3 * (b - a))
-    rig = rig_store.get_rig(obj)
-    return {"ms": statistics.median(total), "cpu_ms": statistics.median(cpu), "nodes": rig.face.network.node_count, "vertices": len(obj.data.vertices),
-            "substeps": rig.substeps_per_frame(FRAME_DT), **{k: statistics.median(v) for k, v in split.items()}}
+        record_split(split, [t0, t1, t2, t3, time.perf_counter()])
+    return {"ms": statistics.median(total), "cpu_ms": statistics.median(cpu),
+            **{k: statistics.median(v) for k, v in split.items()}}
 
 
 def main() -> None:
@@ -125,6 +129,9 @@ def main() -> None:
         obj = make()
         load = os.getloadavg()[0]
         f = measure(obj, args.frames if label != "50k" else max(12, args.frames // 2))
+        rig = _harness.EXTENSION.operators.common.rig_store.get_rig(obj)
+        f.update(nodes=rig.face.network.node_count, vertices=len(obj.data.vertices),
+                 substeps=rig.substeps_per_frame(FRAME_DT))
         print(f"{label:>4} (load average {load:.1f}): {f['vertices']} vertices, {f['nodes']} simulated nodes, "
               f"{f['substeps']} substeps: "
               f"live tick {f['ms']:.2f} ms wall ({1e3 / f['ms']:.0f} fps), {f['cpu_ms']:.2f} ms CPU "
