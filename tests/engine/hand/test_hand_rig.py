@@ -85,6 +85,32 @@ def test_a_geometric_muscle_bulges_the_skin_above_it(rig, muscle):
     assert np.abs(bulged - rest)[far].max() < 3e-4               # and nothing 5 cm away
 
 
+@pytest.mark.parametrize("muscle", ["adductor_pollicis", "opponens_pollicis", "palmar_interosseus_2",
+                                    "flexor_digiti_minimi_brevis"])
+def test_a_geometric_muscle_shortens_when_its_twin_turns_the_joints(rig, muscle):
+    # turning every DOF its pseudo twin crosses by 20 degrees its way (Table A.1 signs) must shorten the
+    # geometric muscle, so that it thickens there (its volume is kept, 6.2.2) and lengthens when turned the
+    # other way. Before, opponens pollicis lay along the thumb metacarpal alone and lengthened to 1.19 (1.39 at
+    # 40 degrees; thumb opposed in a grip: 1.46): opposing the thumb thinned the thenar eminence. Its origin is
+    # now on the carpus (trapezium and flexor retinaculum): 0.75
+    geo, sk = rig.geometric, rig.skeleton
+    m = geo.names.index(muscle)
+    spec = next(s for s in rig.template.muscles if s.name == rig.muscle_names[geo.pseudo[m]])
+    turn = np.zeros(sk.dof_count)
+    for row in spec.rows:
+        turn[sk.dof(row.bone, row.dof)] += np.radians(20.0) * row.sign
+    zero = np.zeros(len(rig.muscle_names))
+
+    def length(q):
+        points, _ = geo.surface(sk.bone_transforms(np.clip(q, rig.pseudo.lower, rig.pseudo.upper)), zero)
+        row = geo.layout.spine_rows[m]
+        return np.linalg.norm(np.diff(points[row], axis=0), axis=1).sum()
+
+    rest = length(np.zeros(sk.dof_count))
+    assert length(turn) < 0.9 * rest
+    assert length(-turn) > rest
+
+
 def test_solve_contractions_reaches_a_pose_set_on_the_bones(rig):
     sk = rig.skeleton
     target = np.zeros(sk.dof_count)
