@@ -232,8 +232,20 @@ def _refine_grid(coarse: np.ndarray, refine: tuple[int, int], closed: bool) -> n
     return out[:-1] if closed else out
 
 
+def _sheet_normals(points: np.ndarray, skin_normals: np.ndarray) -> np.ndarray:
+    """Normals (R, C, 3) of the grid surface itself (row x column tangents), on the skin's side: at an open
+    lip margin the skin turns into the mouth, but the lip ring still faces forward."""
+    along_rows = np.gradient(points, axis=0)
+    along_cols = np.gradient(points, axis=1)
+    n = np.cross(along_rows, along_cols)
+    n /= np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-12)
+    flip = np.sign(np.sum(n * skin_normals, axis=-1, keepdims=True).sum(axis=(0, 1), keepdims=True))
+    return n * np.where(flip == 0, 1.0, flip)
+
+
 def place_muscle(spec: MuscleSpec, canonical: np.ndarray, skin_vertices: np.ndarray, skin_faces: np.ndarray,
-                 skin_normals: np.ndarray, bone_depth: np.ndarray, node_on_jaw: np.ndarray) -> PlacedMuscle:
+                 skin_normals: np.ndarray, bone_depth: np.ndarray, node_on_jaw: np.ndarray,
+                 open_lips: bool = False) -> PlacedMuscle:
     """Refine, project onto the skin and sink the grid to its depth (see the module docstring).
 
     ``bone_depth[i]`` is the skin-to-bone distance under node i; the muscle's centre sits at
@@ -247,6 +259,9 @@ def place_muscle(spec: MuscleSpec, canonical: np.ndarray, skin_vertices: np.ndar
     corners = skin_faces[face]
     normal = np.einsum("ij,ijk->ik", bary, skin_normals[corners])
     normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    if spec.group == "oris" and open_lips:
+        normal = _sheet_normals(projected.reshape(*fine.shape[:2], 3),
+                                normal.reshape(*fine.shape[:2], 3)).reshape(-1, 3)
     under = np.einsum("ij,ij->i", bary, bone_depth[corners])
     wanted = spec.skin_depth + spec.thickness / 2
     depth = np.clip(np.minimum(wanted, under - spec.thickness / 2 - 0.0005), 0.001, None)

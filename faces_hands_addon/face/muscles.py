@@ -69,6 +69,8 @@ class MuscleSystem:
         #: how far the jaw carries each control point: its row's bone (0 skull, 1 jaw), or a fraction where
         #: the skin it moves is carried part way (the lips towards the mouth corners, :meth:`set_jaw_carry`)
         self.jaw_carry = self.bone.astype(np.float64)
+        #: rest lip opening an oris point closes first (:meth:`set_rest_closing`; zero for closed rest lips)
+        self.rest_closing = np.zeros_like(self.rest)
         self.muscle_of_point = np.concatenate([np.full(s, i) for i, s in enumerate(sizes)])
         self.thickness_rest = np.concatenate([np.full(s, m.spec.thickness) for s, m in zip(sizes, placed)])
         # mouth frame (x: right -> left corner, y: protrusion axis reversed, z: up), rows are axes
@@ -101,6 +103,12 @@ class MuscleSystem:
     def set_jaw_carry(self, carry: np.ndarray) -> None:
         """Per control point, the fraction (0..1) of the jaw's motion that carries it at rest."""
         self.jaw_carry = np.clip(np.asarray(carry, np.float64), 0.0, 1.0)
+
+    def set_rest_closing(self, offsets: np.ndarray) -> None:
+        """Per control point, how far it moves (head coordinates, rest pose) when parted rest lips close
+        (an artist's head keeps its lips apart; the default template closes them before the muscles are
+        laid out, :func:`.skin.close_rest_lips`)."""
+        self.rest_closing = np.asarray(offsets, np.float64).reshape(self.rest.shape)
 
     def set_centres(self, centres: list[np.ndarray | None]) -> None:
         """Sphincter centres of contraction (head coordinates, rest pose), one per muscle or None."""
@@ -337,7 +345,12 @@ class MuscleSystem:
             weight = inner if protrusion > 0 else RETRACTED_OUTER + (1.0 - RETRACTED_OUTER) * inner
             local[oris, 1] -= (protrusion * travel * weight)[oris]
         local[oris] = local[oris] @ self.mouth_axes
-        points[which] = local + centre
+        # parted rest lips: scaled towards the centre, the rest opening closes in proportion to the
+        # contraction; it closes at twice that rate (shut by half the full squeeze, the same at full), so a
+        # partly contracted oris meets the other lip as on a template whose lips rest together (3.1.3 closures)
+        shut = np.clip(1.0 - sz, 0.0, 1.0)
+        early = (np.minimum(2.0 * shut, 1.0) - shut) * (1.0 - max(protrusion, 0.0))
+        points[which] = local + centre + early[:, None] * self.rest_closing[which]
         own_length[which] = 0.5 * (sx + sz)
 
     def _push(self, points: np.ndarray, carried: np.ndarray) -> np.ndarray:

@@ -169,10 +169,15 @@ def _muscle_stage(canonical: np.ndarray, inputs: TemplateInputs, skin: SkinMesh,
     if node_mirror is not None:
         positive_depth = np.minimum(positive_depth, positive_depth[node_mirror])
     on_jaw = (bone_part["node_bone"] == JAW).astype(float)
-    placed = [place_muscle(s, canonical, skin.vertices, skin.faces, normals, positive_depth, on_jaw)
-              for s in specs]
+    placed = [place_muscle(s, canonical, skin.vertices, skin.faces, normals, positive_depth, on_jaw,
+                           open_lips=not inputs.closed_lips) for s in specs]
     system = MuscleSystem(placed, connections, _mouth_axes(canonical))
     system.set_centres([s.centre.evaluate(canonical) if s.centre is not None else None for s in specs])
+    if not inputs.closed_lips:      # the oris closes the parted rest lips the way close_rest_lips would
+        oris = np.concatenate([np.full(m.shape[0] * m.shape[1], m.spec.group == "oris") for m in placed])
+        points = np.vstack([canonical, system.rest])
+        offsets = (close_rest_lips(points, inputs.contours) - points)[len(canonical):]
+        system.set_rest_closing(np.where(oris[:, None], offsets, 0.0))
     return system, placed
 
 

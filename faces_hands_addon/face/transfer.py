@@ -158,6 +158,33 @@ def _closest_by_side(template: HeadTemplate, vertices: np.ndarray, side: np.ndar
     return tri, bary, dist
 
 
+def _outside_off_the_bag(template: HeadTemplate, vertices: np.ndarray, faces: np.ndarray, side: np.ndarray,
+                         tri: np.ndarray, bary: np.ndarray, dist: np.ndarray) -> None:
+    """A vertex whose closest template point is on the mouth bag but that faces the other way (the outer
+    skin of a full lip next to the template's thinner lip and its bag) takes the visible skin instead."""
+    skin = template.skin
+    t_faces = skin.faces
+    bag = skin.group("mouth_bag")[t_faces].any(axis=1) | skin.group("lip_inner")[t_faces].any(axis=1)
+    t_normal = np.cross(skin.vertices[t_faces[:, 1]] - skin.vertices[t_faces[:, 0]],
+                        skin.vertices[t_faces[:, 2]] - skin.vertices[t_faces[:, 0]])
+    normal = geometry.vertex_normals(vertices, faces)
+    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-18)
+    teeth_front = float(np.min(template.organs.arches["upper"][0][:, 1]))
+    facing_front = (normal[:, 1] < -0.5) & (vertices[:, 1] < teeth_front)   # outer skin, in front of the teeth
+    wrong = np.flatnonzero(bag[tri] & (np.einsum("ij,ij->i", normal, t_normal[tri]) < 0) & (side != NONE)
+                           & facing_front)
+    if not len(wrong):
+        return
+    bone = template.attachment.node_bone[t_faces]
+    in_mouth = skin.mouth_region[t_faces].any(axis=1)
+    surface = skin.group("surface")[t_faces].all(axis=1)
+    for which, other in ((UPPER, JAW), (LOWER, SKULL)):
+        select = wrong[side[wrong] == which]
+        if len(select):
+            allowed = surface & ~(in_mouth & (bone == other).all(axis=1))
+            tri[select], bary[select], dist[select] = _closest(template, vertices[select], allowed)
+
+
 def transfer_to_mesh(template: HeadTemplate, vertices: np.ndarray, faces: np.ndarray,
                      landmarks: np.ndarray) -> MeshTransfer:
     """Closest-point transfer from ``template`` (built on ``landmarks``, head space) to the mesh
@@ -188,6 +215,7 @@ def transfer_to_mesh(template: HeadTemplate, vertices: np.ndarray, faces: np.nda
     side = np.where(near_mouth, np.where(d_low < d_up, LOWER, UPPER), NONE).astype(np.int8)
 
     tri, bary, dist = _closest_by_side(template, vertices, side)
+    _outside_off_the_bag(template, vertices, faces, side, tri, bary, dist)
 
     corners = t_faces[tri]
     rows = np.repeat(np.arange(n), 3)

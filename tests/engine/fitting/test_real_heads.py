@@ -131,3 +131,35 @@ def test_landmarks_do_not_depend_on_the_machines_core_count():
         with ThreadpoolController().limit(limits=threads, user_api="blas"):
             runs.append(locate_landmarks(vertices, faces, seed=0).positions)
     assert np.array_equal(runs[0], runs[1]), np.abs(runs[0] - runs[1]).max()
+
+
+@pytest.mark.parametrize("name, wanted", [
+    ("soma", {"mouthPucker": 4.0, "viseme_RR": 1.5, "viseme_ou": 3.0}),
+    ("makehuman_neutral", {"viseme_RR": 1.5}),
+])
+def test_fitted_lips_protrude_as_far_as_their_targets(name, wanted):
+    """An artist's head keeps its parted lips, and at an open lip margin the skin normal turns into the
+    mouth: the orbicularis oris grid sunk along it ended inside the lip body (SOMA's inner fibre 4 mm below
+    the lower margin), most lip vertices met the sheet at its inner border and took a reduced muscle weight,
+    so the lips protruded 20-35 % less than on the default head (SOMA pucker 3.7, RR 1.4, ou 2.8 mm; MakeHuman
+    RR 1.4). Sunk along the grid's own normal (``muscle_layout._sheet_normals``), these rounding shapes
+    protrude at least as far as the audit asks (thesis 3.1.2, the oris' protrusion)."""
+    vertices, faces = _head(name)
+    rig = build_fitted_rig(vertices, faces, seed=0)
+    report = audit_shapes(rig, load_expressions("arkit") | load_expressions("visemes"), tuple(wanted))
+    got = {shape: round(report["rows"][shape][0]["protrusion"], 2) for shape in wanted}
+    assert all(got[shape] >= wanted[shape] for shape in wanted), (got, wanted)
+
+
+def test_parted_rest_lips_close_under_a_partial_oris():
+    """The oris grid laid along its own surface (above) sits at the parted lip margins, nearer the ring's
+    centre than when it sank into the lip body, so scaling towards the centre closed less of the rest
+    opening: cheekPuff's 0.4 oris left the African head's lips 2.5 mm apart and anger folded the commissures.
+    The ring now closes the rest opening at twice the rate of its squeeze (``MuscleSystem.set_rest_closing``;
+    the same at full contraction), and both meet every target again."""
+    vertices, faces = _head("makehuman_african_female_old")
+    rig = build_fitted_rig(vertices, faces, seed=0)
+    shapes = ("cheekPuff", "anger")
+    report = audit_shapes(rig, load_expressions("arkit") | load_expressions("named"), shapes)
+    failed = {shape: report["rows"][shape][1] for shape in shapes if report["rows"][shape][1]}
+    assert not failed, failed
