@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """One sweep of the finger contact of :mod:`.contact` as a single loop, compiled by numba where the physics
 kernel is loaded (:func:`..physics.kernel.compiled`); :meth:`.contact.FingerContact._rows` in numpy stays the
-reference and the fallback (``tests/engine/hand/test_hand_contact_kernel.py`` requires agreement to 1e-12).
+reference and the fallback (``tests/engine/hand/test_hand_kernels.py`` requires agreement to 1e-12).
 
 Beyond the thesis (its hand has no collisions, 6.2.5). A sweep poses the samples of the four fingers from
 their MCP abductions and rotations (``P (R (y - c) + c)``, ``R = F Rx Ry Rz F^T``, :meth:`.Skeleton.

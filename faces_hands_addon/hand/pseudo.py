@@ -36,6 +36,7 @@ import numpy as np
 from ..core.errors import UserError
 from .inertia import ChainInertia
 from .presets import MuscleSpec
+from .pseudo_kernel import compiled_substeps
 from .skeleton import Skeleton
 
 __all__ = ["MIN_LENGTH", "MAX_LENGTH", "contraction_force", "stretch_force", "PseudoMuscles"]
@@ -98,6 +99,8 @@ class PseudoMuscles:
         self.capsule = np.array([capsule * (CAPSULE_ABDUCTION if d.kind == "abduction" else 1.0)
                                  for d in skeleton.dofs])
         self.inertia = ChainInertia(skeleton, inertia_masses, self.dynamic)
+        #: "auto": the compiled substeps (:mod:`.pseudo_kernel`) once the physics kernel is loaded; "numpy": never
+        self.backend = "auto"
         self.inertia_dofs = self.inertia.dofs
         self.angles = np.zeros(count)
         self.velocity = np.zeros(count)
@@ -144,6 +147,13 @@ class PseudoMuscles:
         friction, capsule = h * self.friction * inverse_inertia, self.capsule[dyn]
         low, high = self.lower[dyn], self.upper[dyn]
         q, w = self.angles[dyn], self.velocity[dyn]
+        compiled = None if self.backend == "numpy" else compiled_substeps()
+        if compiled is not None:
+            compiled(q, w, np.ascontiguousarray(lever), np.ascontiguousarray(lever2), self.rest, self._min,
+                     self._max, active[:, 0], passive[:, 0], slope_active[:, 0], slope_passive[:, 0],
+                     np.ascontiguousarray(inverse_inertia), np.ascontiguousarray(friction),
+                     np.ascontiguousarray(capsule), low, high, h, substeps)
+            substeps = 0
         for _ in range(substeps):
             raw = rest - lever * q
             lengths = np.clip(raw, low_l, high_l)

@@ -1,6 +1,8 @@
-"""The compiled sweep of the finger contact (faces_hands_addon/hand/contact_kernel.py) against the numpy
-reference of faces_hands_addon/hand/contact.py: the same shortfalls and Jacobian rows on the poses of a motion
-in which the fingers touch, and the same joint angles after a whole motion."""
+"""The compiled hand loops against their numpy references: the finger contact's sweep
+(faces_hands_addon/hand/contact_kernel.py against hand/contact.py: the same shortfalls and Jacobian rows on
+the poses of a motion in which the fingers touch), the pseudo muscles' joint substeps
+(hand/pseudo_kernel.py against hand/pseudo.py: the same angles and speeds after a step from each pose), and
+the same joint angles after a whole motion with both compiled."""
 from __future__ import annotations
 
 import importlib.util
@@ -9,6 +11,7 @@ import numpy as np
 import pytest
 
 from faces_hands_addon.hand import motion
+from faces_hands_addon.hand.pseudo_kernel import compiled_substeps
 from faces_hands_addon.hand.rig import build_hand_rig
 from faces_hands_addon.physics import kernel
 
@@ -55,13 +58,36 @@ def test_compiled_sweep_matches_the_numpy_rows_where_fingers_touch(rig):
     assert compared == 270 and touching > 100
 
 
-def test_a_whole_motion_reaches_the_same_joint_angles_with_the_compiled_sweep(rig):
+def test_compiled_joint_substeps_match_the_numpy_step_from_every_pose_of_a_motion(rig):
+    pseudo = rig.pseudo
+    rig.reset()
+    compared = 0
+    for values in _frames(rig)[:60]:
+        rig.step(values, 1 / 30)
+        contraction = rig.contraction_vector()
+        start = pseudo.angles.copy(), pseudo.velocity.copy()
+        results = {}
+        for backend in ("numpy", "auto"):
+            pseudo.backend = backend
+            pseudo.angles[:], pseudo.velocity[:] = start
+            pseudo.step(contraction, 1 / 30)
+            results[backend] = pseudo.angles.copy(), pseudo.velocity.copy()
+        pseudo.backend = "auto"
+        np.testing.assert_allclose(results["auto"][0], results["numpy"][0], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(results["auto"][1], results["numpy"][1], rtol=0, atol=1e-9)
+        assert np.abs(results["numpy"][0] - start[0]).max() > 0 or compared < 5
+        compared += 1
+    assert compared == 60
+
+
+def test_a_whole_motion_reaches_the_same_joint_angles_with_the_compiled_loops(rig):
     finals = {}
     for backend in ("numpy", "auto"):
-        rig.contact.backend = backend
+        rig.contact.backend = rig.pseudo.backend = backend
         rig.reset()
         for values in _frames(rig):
             rig.step(values, 1 / 30)
         finals[backend] = rig.pseudo.angles.copy()
-    rig.contact.backend = "auto"
+    rig.contact.backend = rig.pseudo.backend = "auto"
+    assert compiled_substeps() is not None
     np.testing.assert_allclose(finals["auto"], finals["numpy"], rtol=0, atol=1e-9)
