@@ -113,6 +113,10 @@ class FingerContact:
         self._last = (np.array(angles, np.float64), transforms)
         return transforms
 
+    def keep(self, angles: np.ndarray, transforms: np.ndarray) -> None:
+        """Remember ``transforms`` as those of ``angles`` (so :meth:`transforms` need not compute them again)."""
+        self._last = (np.array(angles, np.float64), transforms)
+
     def _freeze(self, angles: np.ndarray) -> None:
         """What stays fixed while only the MCP abductions and rotations turn (one forward kinematics per
         :meth:`resolve`, not one per sweep): each finger's parent transform ``P``, its MCP centre ``c``, the

@@ -3,7 +3,8 @@
 
 Per frame, in the order of 6.2.1 "Animation" and 6.2.2: the mixed contraction values drive the pseudo
 muscles, which rotate the bones (:mod:`.pseudo`, Eqs. 6.1-6.9, joint limits of Table 6.4), and touching
-fingers are kept side by side (:mod:`.contact`, beyond the thesis); the geometric
+fingers are kept side by side (:mod:`.contact`) and the thumb on the curled fingers (:mod:`.thumb_contact`; both
+beyond the thesis); the geometric
 muscles follow their bones and bulge (:mod:`.geometric`); every skin node's attachment point is carried by
 the bones (the skin's skinning weights), pushed out by the muscle beneath it and kept on its own side of each
 bent finger joint (:mod:`.crease`, beyond the thesis); then the mass-spring network is integrated (leapfrog
@@ -31,6 +32,7 @@ from ..core.errors import UserError
 from ..core.rig import Pose, read_rig_archive, write_rig_archive
 from . import HAND_RIG_FORMAT
 from .contact import FingerContact
+from .thumb_contact import ThumbContact
 from .crease import Creases, FingerSides, bone_radii
 from .geometric import build_geometric_muscles
 from .network import HandMaterial, build_hand_network
@@ -93,6 +95,8 @@ class HandRig:
         self._weights = sparse.csr_matrix(template.skin.weights)
         self.creases = Creases(sk, template.skin.vertices, template.skin.weights,
                                bone_radii(sk, template.skin.vertices, template.skin.weights))
+        self.thumb_contact = ThumbContact(sk, self.pseudo, bone_radii(sk, template.skin.vertices,
+                                                                      template.skin.weights))
         self.sides = FingerSides(sk, template.skin.vertices, template.skin.weights)
         self._rest = template.skin.vertices.copy()
         self.controls = {name: spec.default for name, spec in self.specs.items()}
@@ -119,6 +123,7 @@ class HandRig:
 
     def reset_state(self) -> None:
         self.pseudo.reset()
+        self.thumb_contact.reset()
         net, integ = self.hand.network, self.hand.integrator
         net.positions[...] = self._rest.T
         integ.velocity[...] = 0.0
@@ -174,6 +179,8 @@ class HandRig:
         contraction = self.contraction_vector()
         self.pseudo.step(contraction, dt)
         self.contact.resolve()
+        angles = self.pseudo.angles
+        self.contact.keep(angles, self.thumb_contact.resolve(self.contact.transforms(angles)))
         self._advance_skin(contraction, dt)
 
     def _advance_skin(self, contraction: np.ndarray, dt: float) -> None:

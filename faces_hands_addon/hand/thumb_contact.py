@@ -1,0 +1,183 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The thumb resting on the curled fingers, beyond the thesis (its hand, 6.2.1-6.2.2, has no collisions; its
+future work, 6.2.5, asks for them).
+
+Why: in a fist the thenar muscles press the thumb onto the fingers, and the fingers push back. Without that
+push only the extensor pollicis brevis (Table A.1: 46 N x 3 mm) extends the thumb's MCP joint against the
+7 mm flexing arms of opponens and adductor pollicis, so a free thumb held about 0.1 of thenar contraction and
+the thenar eminence could not swell (Fig. 6.18; 0.6 mm of skin lift in the fist). With the fingers as a stop
+the thumb's flexion is held where it meets them, as a joint limit holds it (Eq. 6.7 with Table 6.4).
+
+After each frame of the pseudo-muscle dynamics, every sample of the thumb's proximal and distal phalanx axes
+must lie at least the two bones' skin radii (``radii``: the median distance of each bone's own skin nodes from
+its axis, :func:`.crease.bone_radii`; 15-19 mm summed) from every sample of the middle and ring fingers'
+proximal and middle phalanx axes, so the thumb rests on the fingers' skin (before this contact the fist's thumb
+axes lay 9.6 mm from the fingers'). The index finger and the distal phalanges are left out: a tip pinch
+presses the thumb pad into the curled index finger, which this contact would push apart. Where a sample is
+nearer, the thumb's CMC flexion and abduction and its MCP and IP flexion turn by the smallest amounts that
+restore it (linearised: a sample moves by ``w x (p - c) dtheta`` for a DOF turning about ``w`` through its
+joint centre ``c``), within the Table 6.4 limits, a few sweeps per frame, and the thumb's speed into the
+fingers is removed (as at a joint limit). A sample on the palm side of the phalanx it meets is inside the
+curl and is pushed out to the back of that phalanx (the outside of the fist), not further into the palm. While
+the thumb touches (within ``STICK``), its angles are held unless it moves off the fingers (sticking friction),
+so the thenar muscles' push does not slide it off. Only the thumb moves: the fingers are curled by the long
+flexors, far stronger.
+Deterministic; ``enabled = False`` leaves the muscles alone.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .pseudo import PseudoMuscles
+from .skeleton import Skeleton, rotation_matrices
+
+__all__ = ["ThumbContact", "DISTANCE"]
+
+DISTANCE = 0.0160         # m between the thumb's and a finger's phalanx axes when no skin radii are given
+FINGER_BONES = (("middle", "proximal"), ("middle", "intermediate"), ("ring", "proximal"),
+                ("ring", "intermediate"))
+THUMB = ("thumb-phalanx-proximal", "thumb-phalanx-distal")
+DOFS = (("thumb-metacarpal", "flexion"), ("thumb-metacarpal", "abduction"),
+        ("thumb-phalanx-proximal", "flexion"), ("thumb-phalanx-distal", "flexion"))
+SWEEPS = 4
+TOLERANCE = 2e-4          # m of shortfall left alone
+MAX_TURN = np.radians(6.0)
+STICK = 0.001             # m: a thumb this near its contact distance is touching (sticking friction)
+
+
+def _points(skeleton: Skeleton, bones: list[int], samples: int) -> tuple[np.ndarray, np.ndarray]:
+    s = np.linspace(0.0, 1.0, samples)[:, None]
+    rest = [skeleton.position[b] + s * (skeleton.tail[b] - skeleton.position[b]) for b in bones]
+    return np.concatenate(rest), np.repeat(bones, samples)
+
+
+class ThumbContact:
+    """Keeps the thumb's phalanges out of the curled fingers by its own flexion DOFs (module docstring)."""
+
+    def __init__(self, skeleton: Skeleton, pseudo: PseudoMuscles, radii: np.ndarray | None = None, samples: int = 6):
+        self.skeleton, self.pseudo, self.enabled = skeleton, pseudo, True
+        thumb = [skeleton.index[b] for b in THUMB]
+        fingers = [skeleton.index[f"{f}-finger-phalanx-{p}"] for f, p in FINGER_BONES]
+        self.rest, self.owner = _points(skeleton, thumb, samples)
+        self.finger_rest, self.finger_owner = _points(skeleton, fingers, samples)
+        # (thumb samples, finger samples) contact distance: the two bones' skin radii (skin on skin), or DISTANCE
+        radii = np.full(len(skeleton.names), DISTANCE / 2) if radii is None else np.asarray(radii, np.float64)
+        self.distance = radii[self.owner][:, None] + radii[self.finger_owner][None, :]
+        self.dofs = np.array([skeleton.dof(b, k) for b, k in DOFS])
+        self.bones = np.array([skeleton.index[b] for b, _ in DOFS])
+        self.signs = np.array([skeleton.dofs[k].sign for k in self.dofs])
+        self.flexion = skeleton.dof("thumb-metacarpal", "flexion")
+        # which samples each DOF carries: every DOF at or above the sample's bone in the thumb's chain
+        self.moves = np.array([[b in skeleton.chain_below(int(bone)) for b in self.owner] for bone in self.bones])
+        self._held = None
+        # each finger sample's palmar direction at rest (its bone's tip moving as the bone flexes), for the
+        # curl rule of :meth:`_rows`; distal phalanges (pads that a pinch meets) have none
+        rest_t = skeleton.bone_transforms(np.zeros(skeleton.dof_count))
+        palmar = np.zeros((len(skeleton.names), 3))
+        for b in set(self.finger_owner.tolist()):
+            if skeleton.names[b].endswith("distal"):
+                continue
+            q = np.zeros(skeleton.dof_count)
+            q[skeleton.dof(skeleton.names[b], "flexion")] = 0.01
+            tip = skeleton.bone_transforms(q)[b] @ np.r_[skeleton.tail[b], 1.0]
+            move = tip[:3] - (rest_t[b] @ np.r_[skeleton.tail[b], 1.0])[:3]
+            palmar[b] = move / np.linalg.norm(move)
+        self.palmar = palmar[self.finger_owner]
+        self.curl = np.linalg.norm(self.palmar, axis=1) > 0
+
+    def gaps(self, transforms: np.ndarray) -> np.ndarray:
+        """(S,) each thumb sample's clearance: its distance to a finger sample less their contact distance, at
+        the nearest (m; negative inside the fingers)."""
+        m = transforms[self.owner]
+        points = np.einsum("sij,sj->si", m[:, :3, :3], self.rest) + m[:, :3, 3]
+        m = transforms[self.finger_owner]
+        fingers = np.einsum("sij,sj->si", m[:, :3, :3], self.finger_rest) + m[:, :3, 3]
+        return (np.sqrt(((points[:, None, :] - fingers[None]) ** 2).sum(-1)) - self.distance).min(axis=1)
+
+    def reset(self) -> None:
+        self._held = None
+
+    def _axes(self, transforms: np.ndarray, angles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """World axes (D, 3) of the DOFs (signed like them; a joint turns ``F Rx Ry Rz F^T``, :mod:`.skeleton`)
+        and their joint centres (D, 3)."""
+        sk = self.skeleton
+        parents = sk.parent[self.bones]
+        world = transforms[parents][:, :3, :3] @ sk.frame[self.bones]
+        axes = world[:, :, 0].copy()                                    # flexion: the frame's x
+        flex = rotation_matrices(np.array([[1.0, 0.0, 0.0]]), np.array([angles[self.flexion] * self.signs[0]]))[0]
+        axes[1] = (world[1] @ flex)[:, 1]                               # CMC abduction: y after flexion
+        centres = np.einsum("dij,dj->di", transforms[parents][:, :3, :3], sk.position[self.bones]) \
+            + transforms[parents][:, :3, 3]
+        return axes * self.signs[:, None], centres
+
+    def _rows(self, transforms: np.ndarray, angles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Shortfalls (R,) of the thumb samples nearer a finger than ``distance`` and their Jacobian (R, D)."""
+        m = transforms[self.owner]
+        points = np.einsum("sij,sj->si", m[:, :3, :3], self.rest) + m[:, :3, 3]
+        m = transforms[self.finger_owner]
+        fingers = np.einsum("sij,sj->si", m[:, :3, :3], self.finger_rest) + m[:, :3, 3]
+        between = points[:, None, :] - fingers[None, :, :]
+        square = np.sqrt(np.einsum("tfi,tfi->tf", between, between))
+        nearest = np.argmin(square - self.distance, axis=1)
+        rows = np.arange(len(points))
+        gap, want = square[rows, nearest], self.distance[rows, nearest]
+        self._clearance = gap - want
+        close = np.flatnonzero(want - gap > TOLERANCE)
+        if len(close) == 0:
+            return np.zeros(0), np.zeros((0, len(self.dofs)))
+        normal = between[close, nearest[close]] / np.maximum(gap[close], 1e-9)[:, None]
+        short = want[close] - gap[close]
+        # a thumb sample on the palm side of a curled finger's proximal or middle phalanx is inside the curl:
+        # pushed out to the back of that phalanx (the outside of the fist), not further into the palm
+        f = nearest[close]
+        m = transforms[self.finger_owner[f]]
+        palmar = np.einsum("rij,rj->ri", m[:, :3, :3], self.palmar[f])
+        depth = np.einsum("ri,ri->r", between[close, f], palmar)
+        inside = self.curl[f] & (depth > 0)
+        normal[inside] = -palmar[inside]
+        short[inside] = want[close][inside] + depth[inside]
+        axes, centres = self._axes(transforms, angles)
+        lever = np.cross(axes[None, :, :], points[close][:, None, :] - centres[None, :, :])   # (R, D, 3)
+        jac = np.einsum("rdi,ri->rd", lever, normal) * self.moves[:, close].T
+        return short, jac
+
+    def resolve(self, transforms: np.ndarray) -> np.ndarray:
+        """Push the thumb out of the fingers (module docstring), at the bone ``transforms`` of the current
+        angles; returns the transforms of the angles it leaves (the same array when the thumb did not move)."""
+        pseudo, angles, dofs = self.pseudo, self.pseudo.angles, self.dofs
+        if not self.enabled:
+            return transforms
+        if self._held is not None:              # sticking: held unless every sample moved off the fingers
+            held, before = self._held
+            if np.any(self.gaps(transforms) < before - 1e-5):
+                angles[dofs] = held
+                pseudo.velocity[dofs] = 0.0
+                transforms = self.skeleton.bone_transforms(angles)
+        moved = True
+        for _ in range(SWEEPS):
+            shorts, jac = self._rows(transforms, angles)
+            moved = False
+            if len(shorts) == 0:
+                break
+            free = np.ones(len(dofs), bool)
+            for _ in range(3):          # drop DOFs a turn would push past their limits, then solve again
+                j = jac * free
+                lam = np.maximum(np.linalg.solve(j @ j.T + 1e-9 * np.eye(len(shorts)), shorts), 0.0)
+                step = np.clip(j.T @ lam, -MAX_TURN, MAX_TURN)
+                target = angles[dofs] + step
+                blocked = ((target < pseudo.lower[dofs]) & (step < 0)) | ((target > pseudo.upper[dofs]) & (step > 0))
+                if not np.any(blocked & free):
+                    break
+                free &= ~blocked
+            new = np.clip(angles[dofs] + step, pseudo.lower[dofs], pseudo.upper[dofs])
+            turn = new - angles[dofs]
+            if np.abs(turn).max() < 1e-7:
+                break
+            stop = pseudo.velocity[dofs] * turn < 0
+            pseudo.velocity[dofs[stop]] = 0.0
+            angles[dofs] = new
+            transforms = self.skeleton.bone_transforms(angles)
+            moved = True
+        gaps = self.gaps(transforms) if moved else self._clearance
+        self._held = (angles[dofs].copy(), gaps) if -STICK < gaps.min() < STICK else None
+        return transforms
