@@ -84,15 +84,22 @@ class ThumbContact:
             palmar[b] = move / np.linalg.norm(move)
         self.palmar = palmar[self.finger_owner]
         self.curl = np.linalg.norm(self.palmar, axis=1) > 0
+        self._owners = np.concatenate([self.owner, self.finger_owner])
+        self._rests = np.concatenate([self.rest, self.finger_rest])
 
-    def gaps(self, transforms: np.ndarray) -> np.ndarray:
+    def _measure(self, transforms: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The thumb samples (S, 3), their offsets from the finger samples (S, F, 3) and distances (S, F)."""
+        m = transforms[self._owners]
+        posed = np.einsum("sij,sj->si", m[:, :3, :3], self._rests) + m[:, :3, 3]
+        points, fingers = posed[:len(self.owner)], posed[len(self.owner):]
+        between = points[:, None, :] - fingers[None, :, :]
+        return points, between, np.sqrt(np.einsum("tfi,tfi->tf", between, between))
+
+    def gaps(self, transforms: np.ndarray, measured=None) -> np.ndarray:
         """(S,) each thumb sample's clearance: its distance to a finger sample less their contact distance, at
         the nearest (m; negative inside the fingers)."""
-        m = transforms[self.owner]
-        points = np.einsum("sij,sj->si", m[:, :3, :3], self.rest) + m[:, :3, 3]
-        m = transforms[self.finger_owner]
-        fingers = np.einsum("sij,sj->si", m[:, :3, :3], self.finger_rest) + m[:, :3, 3]
-        return (np.sqrt(((points[:, None, :] - fingers[None]) ** 2).sum(-1)) - self.distance).min(axis=1)
+        square = self._measure(transforms)[2] if measured is None else measured[2]
+        return (square - self.distance).min(axis=1)
 
     def reset(self) -> None:
         self._held = None
@@ -110,14 +117,9 @@ class ThumbContact:
             + transforms[parents][:, :3, 3]
         return axes * self.signs[:, None], centres
 
-    def _rows(self, transforms: np.ndarray, angles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _rows(self, transforms: np.ndarray, angles: np.ndarray, measured=None) -> tuple[np.ndarray, np.ndarray]:
         """Shortfalls (R,) of the thumb samples nearer a finger than ``distance`` and their Jacobian (R, D)."""
-        m = transforms[self.owner]
-        points = np.einsum("sij,sj->si", m[:, :3, :3], self.rest) + m[:, :3, 3]
-        m = transforms[self.finger_owner]
-        fingers = np.einsum("sij,sj->si", m[:, :3, :3], self.finger_rest) + m[:, :3, 3]
-        between = points[:, None, :] - fingers[None, :, :]
-        square = np.sqrt(np.einsum("tfi,tfi->tf", between, between))
+        points, between, square = self._measure(transforms) if measured is None else measured
         nearest = np.argmin(square - self.distance, axis=1)
         rows = np.arange(len(points))
         gap, want = square[rows, nearest], self.distance[rows, nearest]
@@ -147,16 +149,18 @@ class ThumbContact:
         pseudo, angles, dofs = self.pseudo, self.pseudo.angles, self.dofs
         if not self.enabled:
             return transforms
+        measured = None
         if self._held is not None:              # sticking: held unless every sample moved off the fingers
             held, before = self._held
-            if np.any(self.gaps(transforms) < before - 1e-5):
+            measured = self._measure(transforms)
+            if np.any(self.gaps(transforms, measured) < before - 1e-5):
                 angles[dofs] = held
                 pseudo.velocity[dofs] = 0.0
-                transforms = self.skeleton.bone_transforms(angles)
+                transforms, measured = self.skeleton.bone_transforms(angles), None
         moved = True
         for _ in range(SWEEPS):
-            shorts, jac = self._rows(transforms, angles)
-            moved = False
+            shorts, jac = self._rows(transforms, angles, measured)
+            measured, moved = None, False
             if len(shorts) == 0:
                 break
             free = np.ones(len(dofs), bool)
