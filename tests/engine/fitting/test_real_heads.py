@@ -177,3 +177,17 @@ def test_fitted_brows_lower_without_folding():
     report = audit_shapes(rig, load_expressions("arkit") | load_expressions("named"), shapes)
     failed = {shape: report["rows"][shape][1] for shape in shapes if report["rows"][shape][1]}
     assert not failed, failed
+
+
+def test_fitted_canthus_slivers_do_not_flip():
+    """SOMA's inner canthus has sliver triangles (one edge 0.2 mm): the canthus nodes' lid targets barely
+    move (the canthal tie), but their attachment was the weakest around the eye (its gain falls with the
+    lid weight), so the closing upper lid dragged one node 0.1 mm past its neighbour and the triangle
+    flipped in blink and eyeWide. The canthal tendons now hold those nodes firmly (``LidRig.canthus_tie``,
+    thesis 3.1.2 "Eyes, Teeth, Tongue"): these shapes fold no triangle."""
+    vertices, faces = _head("soma")
+    rig = build_fitted_rig(vertices, faces, seed=0)
+    shapes = ("eyeBlinkRight", "eyeWideLeft", "eyeWideRight")
+    report = audit_shapes(rig, load_expressions("arkit"), shapes)
+    inverted = {shape: report["rows"][shape][0]["inverted"] for shape in shapes}
+    assert not any(inverted.values()), inverted
