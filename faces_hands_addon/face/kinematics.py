@@ -170,11 +170,15 @@ class LidRig:
         near = np.min(np.linalg.norm(nodes[:, None] - canthi[None], axis=2), axis=1) / CANTHUS_RADIUS
         near = np.clip(near, 0.0, 1.0)
         self.weight = self.weight * near * near * (3 - 2 * near)
+        # how firmly the canthal tendons hold each node (1 on a canthus, 0 from CANTHUS_RADIUS on): on a
+        # fitted head only (``fade`` given), whose artist's mesh may have slivers there (SOMA: a 0.2 mm edge)
+        self.canthus_tie = np.zeros(len(nodes))
         aperture = np.maximum(self.theta_u - self.theta_l, 0.0)
         t = np.clip(aperture / max(0.5 * float(aperture[select].max(initial=0.0)), 1e-9), 0.0, 1.0)
         self.open_share = t * t * (3 - 2 * t)
         if fade is not None:
             self.weight = self.weight * np.asarray(fade, np.float64)
+            self.canthus_tie = (1.0 - near * near * (3 - 2 * near)) * np.asarray(fade, np.float64)
         self.index = np.flatnonzero(self.weight > 0)
 
     def _setup(self, nodes: np.ndarray, up: np.ndarray, low: np.ndarray, falloff_upper: float,

@@ -11,7 +11,7 @@ from scipy import sparse
 from scipy.spatial import cKDTree
 
 from ..core import geometry
-from .attachment import signed_bone_distance
+from .attachment import signed_bone_distance, smoothing_operator
 from . import organs as organ_meshes
 from .kinematics import LidRig, cornea_bulge
 from .skin import GROUPS, SkinMesh
@@ -23,6 +23,8 @@ __all__ = ["network_template"]
 LID_SETUP_RADIUS = 0.025     # m: lid rigs are set up on the vertices this close to the eye (reach: 22 mm)
 EYE_CLEARANCE = 0.0005       # m the mesh's lid margins are kept outside the eyeball and cornea (_eye_centres)
 LINING_FACING, LINING_REACH = 0.1, 0.004   # cosine towards the eye centre; m beyond the eyeball (_eye_linings)
+BROW_SPREAD_PASSES = 3                      # smoothing passes of the muscle field on the mesh (_spread_over_the_brows)
+BROW_SPREAD_FROM = (0.02, 0.035)            # m from the lips over which that smoothing fades in
 EYE_STEP, EYE_MAX_SHIFT = 0.0001, 0.006     # m: the eyeball moves back in these steps, at most this far
 
 
@@ -154,6 +156,20 @@ def _lid_rigs(source: HeadTemplate, transfer: MeshTransfer, nodes, landmarks, sk
     return lids
 
 
+def _spread_over_the_brows(attachment, skin: SkinMesh, lip_distance: np.ndarray) -> None:
+    """The muscle field interpolated from the template keeps the template's own spread (its skin layer's
+    smoothing passes, thesis 3.1.2 Fig. 3.4), which is steep for an artist's finer mesh at the brow's lower
+    edge: on SOMA neighbouring nodes ~4 mm apart were pulled 1.0 and 4.7 mm by browDown, which
+    folded the skin between brow and lid. ``BROW_SPREAD_PASSES`` passes of the skin layer's smoothing on
+    the mesh itself spread it there; the lips keep their field (the smoothing fades in from
+    ``BROW_SPREAD_FROM[0]`` to ``[1]`` away from the lips: their margins must meet and protrude)."""
+    operator, _ = smoothing_operator(skin)
+    low, high = BROW_SPREAD_FROM
+    share = np.clip((lip_distance - low) / (high - low), 0.0, 1.0)
+    attachment.smoothing = (sparse.diags(share) @ operator + sparse.diags(1.0 - share)).tocsr()
+    attachment.smoothing_passes = BROW_SPREAD_PASSES
+
+
 def network_template(source: HeadTemplate, transfer: MeshTransfer, vertices: np.ndarray, faces: np.ndarray,
                      landmarks: np.ndarray):
     """The template the spring network is built from (module docstring), the mesh vertex ids of its nodes
@@ -173,6 +189,7 @@ def network_template(source: HeadTemplate, transfer: MeshTransfer, vertices: np.
     node_bone = transfer.node_bone[nodes_index]
     attachment = source.attachment.transferred(interpolation, weight, node_bone, transfer.jaw_weight[nodes_index],
                                                _bone_contact(source.bones, nodes, node_bone))
+    _spread_over_the_brows(attachment, skin, transfer.lip_distance[nodes_index])
     record = SkinRecord(skin, normals, geometry.vertex_areas(nodes, sub_faces), transfer.mouth_region[nodes_index],
                         transfer.lip_distance[nodes_index],
                         {k: v[nodes_index] for k, v in transfer.wrinkles.items()}, kinematic)

@@ -46,6 +46,7 @@ __all__ = ["SkinMaterial", "MATERIAL_RANGES", "FaceNetwork", "build_network"]
 SKIN_EDGE_STIFFNESS = 1.0     # N/m; the scale is free (muscles move anchors kinematically)
 COMPRESSION_SOFTNESS = 0.25   # skin yields under compression (a membrane without bending would buckle)
 CORNER_RADIUS, CORNER_GAIN = 0.0035, 40.0    # m around each mouth corner (the modiolus' knot); its attachment gain
+CANTHUS_GAIN = 40.0          # attachment gain on a canthus (the canthal tendons tie it to the orbit), as CORNER_GAIN
 
 #: documented UI ranges of the material knobs (values outside are clamped)
 MATERIAL_RANGES = {
@@ -114,6 +115,13 @@ def _lid_weight(template: HeadTemplate) -> np.ndarray:
     return lid_weight
 
 
+def _canthus_tie(template: HeadTemplate) -> np.ndarray:
+    tie = np.zeros(template.node_count)
+    for lid in template.organs.lids.values():
+        tie = np.maximum(tie, getattr(lid, "canthus_tie", 0.0))
+    return tie
+
+
 def _skin_springs(template: HeadTemplate, material: SkinMaterial, lid_weight: np.ndarray):
     """Biphasic springs on the skin edges (3.1.2), soft (no stiff branch) on lids, lips and mouth lining."""
     skin, k = template.skin, SKIN_EDGE_STIFFNESS
@@ -141,6 +149,8 @@ def _attachment_pairs(template: HeadTemplate, material: SkinMaterial, lid_weight
     area = np.maximum(skin.areas, 1e-12)
     gain = np.ones(n)
     gain[lid_weight > 0.0] = 1.0 + 11.0 * lid_weight[lid_weight > 0.0]
+    tie = _canthus_tie(template)
+    gain = np.maximum(gain, 1.0 + CANTHUS_GAIN * tie)
     gain[skin.group("lip_inner") | skin.group("upper_lip") | skin.group("lower_lip")] = 2.0
     gain[skin.group("mouth_bag")] = 3.0
     gain[skin.group("boundary")] = 3.0

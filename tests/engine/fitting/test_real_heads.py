@@ -163,3 +163,31 @@ def test_parted_rest_lips_close_under_a_partial_oris():
     report = audit_shapes(rig, load_expressions("arkit") | load_expressions("named"), shapes)
     failed = {shape: report["rows"][shape][1] for shape in shapes if report["rows"][shape][1]}
     assert not failed, failed
+
+
+def test_fitted_brows_lower_without_folding():
+    """The muscle field a fitted head takes over from the template kept the template's spread, steep for an
+    artist's finer mesh at the brow's lower edge: SOMA nodes ~4 mm apart were pulled 1.0 and 4.7 mm by
+    browDown and 4 triangles between brow and lid folded on each side (anger 10, fear and disgust 2). The
+    field is spread further on the mesh itself away from the lips (``mesh_template._spread_over_the_brows``,
+    thesis 3.1.2 Fig. 3.4): these shapes meet every target, the inverted-triangle count included."""
+    vertices, faces = _head("soma")
+    rig = build_fitted_rig(vertices, faces, seed=0)
+    shapes = ("browDownLeft", "browDownRight", "browInnerUp", "fear", "disgust")
+    report = audit_shapes(rig, load_expressions("arkit") | load_expressions("named"), shapes)
+    failed = {shape: report["rows"][shape][1] for shape in shapes if report["rows"][shape][1]}
+    assert not failed, failed
+
+
+def test_fitted_canthus_slivers_do_not_flip():
+    """SOMA's inner canthus has sliver triangles (one edge 0.2 mm): the canthus nodes' lid targets barely
+    move (the canthal tie), but their attachment was the weakest around the eye (its gain falls with the
+    lid weight), so the closing upper lid dragged one node 0.1 mm past its neighbour and the triangle
+    flipped in blink and eyeWide. The canthal tendons now hold those nodes firmly (``LidRig.canthus_tie``,
+    thesis 3.1.2 "Eyes, Teeth, Tongue"): these shapes fold no triangle."""
+    vertices, faces = _head("soma")
+    rig = build_fitted_rig(vertices, faces, seed=0)
+    shapes = ("eyeBlinkRight", "eyeWideLeft", "eyeWideRight")
+    report = audit_shapes(rig, load_expressions("arkit"), shapes)
+    inverted = {shape: report["rows"][shape][0]["inverted"] for shape in shapes}
+    assert not any(inverted.values()), inverted
