@@ -43,7 +43,7 @@ from .contact_kernel import compiled_sweeps
 from .pseudo import PseudoMuscles
 from .skeleton import Skeleton, rotation_matrices
 
-__all__ = ["FingerContact", "SPACING", "KNUCKLE", "BASE", "CONTACT_FINGERS"]
+__all__ = ["FingerContact", "SPACING", "KNUCKLE", "BASE", "CONTACT_FINGERS", "turn_apart"]
 
 SPACING = 0.98           # neighbouring phalanx axes at least this share of their MCP joints' distance apart
 KNUCKLE = 0.87            # in the web: the radial proximal phalanx and its neighbour's MCP centre (module docstring)
@@ -61,6 +61,35 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """``a x b`` for (..., 3) arrays (``np.cross`` costs more than the arithmetic for a handful of vectors)."""
     return np.stack([a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1], a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2],
                      a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]], axis=-1)
+
+
+def turn_apart(pseudo: PseudoMuscles, dofs: np.ndarray, shorts: np.ndarray, jac: np.ndarray,
+               max_turn: float) -> bool:
+    """One linearised contact sweep: the smallest turn ``J^T lambda`` (``lambda >= 0``) of the joint DOFs
+    ``dofs`` that restores the ``shorts`` (m) with Jacobian ``jac`` (rows, DOFs), at most ``max_turn`` per
+    DOF, DOFs a turn would push past their Table 6.4 limits taken out (up to three solves); the joints'
+    speed into the contact is removed (as at a joint limit). Changes ``pseudo.angles`` and
+    ``pseudo.velocity`` in place; False when the turn is below 1e-7 rad (nothing moved)."""
+    angles = pseudo.angles
+    free = np.ones(len(dofs), bool)
+    for _ in range(3):          # drop DOFs a turn would push past their limits, then solve again
+        j = jac * free
+        gram = j @ j.T + 1e-9 * np.eye(len(shorts))
+        lam = np.maximum(np.linalg.solve(gram, shorts), 0.0)
+        step = np.clip(j.T @ lam, -max_turn, max_turn)
+        target = angles[dofs] + step
+        blocked = ((target < pseudo.lower[dofs]) & (step < 0)) | ((target > pseudo.upper[dofs]) & (step > 0))
+        if not np.any(blocked & free):
+            break
+        free &= ~blocked
+    new = np.clip(angles[dofs] + step, pseudo.lower[dofs], pseudo.upper[dofs])
+    turn = new - angles[dofs]
+    if np.abs(turn).max() < 1e-7:
+        return False
+    stop = pseudo.velocity[dofs] * turn < 0
+    pseudo.velocity[dofs[stop]] = 0.0
+    angles[dofs] = new
+    return True
 
 
 class FingerContact:
@@ -246,23 +275,7 @@ class FingerContact:
             shorts, jac = self._rows(angles)
             if len(shorts) == 0 or (moved and shorts.max() < SETTLED):
                 break
-            free = np.ones(len(dofs), bool)
-            for _ in range(3):          # drop DOFs a turn would push past their limits, then solve again
-                j = jac * free
-                gram = j @ j.T + 1e-9 * np.eye(len(shorts))
-                lam = np.maximum(np.linalg.solve(gram, shorts), 0.0)
-                step = np.clip(j.T @ lam, -MAX_TURN, MAX_TURN)
-                target = angles[dofs] + step
-                blocked = ((target < pseudo.lower[dofs]) & (step < 0)) | ((target > pseudo.upper[dofs]) & (step > 0))
-                if not np.any(blocked & free):
-                    break
-                free &= ~blocked
-            new = np.clip(angles[dofs] + step, pseudo.lower[dofs], pseudo.upper[dofs])
-            turn = new - angles[dofs]
-            if np.abs(turn).max() < 1e-7:
+            if not turn_apart(pseudo, dofs, shorts, jac, MAX_TURN):
                 break
-            stop = pseudo.velocity[dofs] * turn < 0
-            pseudo.velocity[dofs[stop]] = 0.0
-            angles[dofs] = new
             moved = True
         return moved

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .contact import turn_apart
 from .pseudo import PseudoMuscles
 from .skeleton import Skeleton, rotation_matrices
 
@@ -163,23 +164,8 @@ class ThumbContact:
             measured, moved = None, False
             if len(shorts) == 0:
                 break
-            free = np.ones(len(dofs), bool)
-            for _ in range(3):          # drop DOFs a turn would push past their limits, then solve again
-                j = jac * free
-                lam = np.maximum(np.linalg.solve(j @ j.T + 1e-9 * np.eye(len(shorts)), shorts), 0.0)
-                step = np.clip(j.T @ lam, -MAX_TURN, MAX_TURN)
-                target = angles[dofs] + step
-                blocked = ((target < pseudo.lower[dofs]) & (step < 0)) | ((target > pseudo.upper[dofs]) & (step > 0))
-                if not np.any(blocked & free):
-                    break
-                free &= ~blocked
-            new = np.clip(angles[dofs] + step, pseudo.lower[dofs], pseudo.upper[dofs])
-            turn = new - angles[dofs]
-            if np.abs(turn).max() < 1e-7:
+            if not turn_apart(pseudo, dofs, shorts, jac, MAX_TURN):
                 break
-            stop = pseudo.velocity[dofs] * turn < 0
-            pseudo.velocity[dofs[stop]] = 0.0
-            angles[dofs] = new
             transforms = self.skeleton.bone_transforms(angles)
             moved = True
         gaps = self.gaps(transforms) if moved else self._clearance
