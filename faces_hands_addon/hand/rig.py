@@ -93,10 +93,9 @@ class HandRig:
         self.hand = build_hand_network(template.skin.vertices, template.skin.faces, material)
         self.material = self.hand.material
         self._weights = sparse.csr_matrix(template.skin.weights)
-        self.creases = Creases(sk, template.skin.vertices, template.skin.weights,
-                               bone_radii(sk, template.skin.vertices, template.skin.weights))
-        self.thumb_contact = ThumbContact(sk, self.pseudo, bone_radii(sk, template.skin.vertices,
-                                                                      template.skin.weights))
+        radii = bone_radii(sk, template.skin.vertices, template.skin.weights)
+        self.creases = Creases(sk, template.skin.vertices, template.skin.weights, radii)
+        self.thumb_contact = ThumbContact(sk, self.pseudo, radii)
         self.sides = FingerSides(sk, template.skin.vertices, template.skin.weights)
         self._rest = template.skin.vertices.copy()
         self.controls = {name: spec.default for name, spec in self.specs.items()}
