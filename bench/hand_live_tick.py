@@ -37,7 +37,7 @@ def measure_hand(obj, table, names, compiled: bool) -> dict:
     """:func:`live_tick.measure` of the hand: the 'showcase' contractions, the hand's hook, the compiled
     (``compiled``) or the numpy path."""
     rig = _harness.EXTENSION.operators.common.rig_store.get_rig(obj)
-    rig.hand.integrator.backend = rig.contact.backend = "auto" if compiled else "numpy"
+    rig.hand.integrator.backend = rig.contact.backend = rig.pseudo.backend = "auto" if compiled else "numpy"
     rig.reset()
 
     def set_row(target, frame):
