@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import kernel
+from . import anchor_kernel, kernel
 
 __all__ = ["BoneHalfSpaceGuard", "SphereGuard", "CapBulge"]
 
@@ -97,6 +97,7 @@ class BoneHalfSpaceGuard:
         self._transforms: list[np.ndarray] = []
         self._posed = False              # point/normal are local_point/local_normal posed by _transforms
         self._surfaces = None
+        self._packed = None               # the surfaces' grids for the compiled refresh
         self._own = None
         self._initial = (self.local_point.copy(), self.local_normal.copy(), self.bone.copy())
 
@@ -145,6 +146,13 @@ class BoneHalfSpaceGuard:
     def _pose(self, which: np.ndarray | None) -> None:
         """Pose the planes of the guarded nodes ``which`` (all for ``None``) with their bones."""
         self._posed = True
+        if which is None and _compiled_guards(self.backend) is not None:
+            every = np.arange(len(self.nodes))
+            kernel.compiled(anchor_kernel.pose_planes)(
+                every, len(every), self.bone, np.ascontiguousarray([m[:3, :3] for m in self._transforms]),
+                np.ascontiguousarray([m[:3, 3] for m in self._transforms]), self.local_point, self.local_normal,
+                self.point, self.normal)
+            return
         for index, matrix in enumerate(self._transforms):
             if which is None:            # every plane: whole-array products, kept where the bone is this one
                 mine = (self.bone == index)[None, :]
@@ -167,6 +175,7 @@ class BoneHalfSpaceGuard:
         plane must face the same way (bone meshes with inner surfaces would otherwise offer planes that
         push the skin into the head)."""
         from scipy.spatial import cKDTree
+        self._packed = None
         self._surfaces = [(np.ascontiguousarray(v, np.float64), np.asarray(n, np.float64), cKDTree(v))
                           for v, n in surfaces]
         self._grids = [_vertex_grid(v, reach) for v, _, _ in self._surfaces]
@@ -207,6 +216,9 @@ class BoneHalfSpaceGuard:
             return
         if self._own is not None:
             self._refresh_own_bone(positions, everything)
+            return
+        if self._last is not None and _compiled_guards(self.backend) is not None:
+            self._refresh_compiled(positions, everything)
             return
         all_x = positions[:, self.nodes]
         if self._last is None or everything:
@@ -255,6 +267,43 @@ class BoneHalfSpaceGuard:
         if self._last is not None:
             self._last[:, active] = x.T
         self._pose(active)
+
+    def _refresh_compiled(self, positions: np.ndarray, everything: bool) -> None:
+        """:meth:`refresh` in the compiled loops of :mod:`.anchor_kernel` (same nodes, vertices and planes
+        as the numpy code above, which stays the reference); the exact closest points stay in numpy."""
+        if self._packed is None:
+            self._packed = anchor_kernel.pack_grids([(v, n) for v, n, _ in self._surfaces], self._reach)
+        moved, nearest, pose = (kernel.compiled(anchor_kernel.moved_nodes),
+                                kernel.compiled(anchor_kernel.nearest_bone_planes, anchor_kernel.nearest_in_bone),
+                                kernel.compiled(anchor_kernel.pose_planes))
+        x, active = np.empty((len(self.nodes), 3)), np.empty(len(self.nodes), np.int64)
+        count = moved(positions, self.nodes, self._last, self._moved, everything, x, active)
+        if not count:
+            return
+        rotations = np.ascontiguousarray([m[:3, :3] for m in self._transforms])
+        shifts = np.ascontiguousarray([m[:3, 3] for m in self._transforms])
+        grids = self._packed
+        best, local_own = np.empty(count), np.empty((count, 3))
+        facing = self._facing if self._facing is not None else np.zeros((3, 0))
+        nearest(x, active, count, rotations, shifts, grids.vertices, grids.normals, grids.vertex_start, grids.order,
+                grids.starts, grids.cube_start, grids.origin, grids.dims, grids.cell, self._reach, facing,
+                self._facing is not None, self.bone, self.local_point, self.local_normal, best, local_own)
+        active = active[:count]
+        if self._exact is not None:
+            height = np.einsum("ij,ji->i", local_own - self.local_point[:, active].T, self.local_normal[:, active])
+            close = np.isfinite(best) & (height < self.clearance[active] + 0.001)
+            for bone, rotation in enumerate(rotations):
+                pick = np.flatnonzero(close & (self.bone[active] == bone))
+                if not len(pick):
+                    continue
+                p_exact, n_exact = self._exact(bone, local_own[pick])
+                ok = np.ones(len(pick), bool) if self._facing is None else \
+                    np.einsum("ij,ji->i", n_exact @ rotation.T, self._facing[:, active[pick]]) > 0.2
+                self.local_point[:, active[pick[ok]]] = p_exact[ok].T
+                self.local_normal[:, active[pick[ok]]] = n_exact[ok].T
+        self._last[:, active] = x[active].T
+        self._posed = True
+        pose(active, count, self.bone, rotations, shifts, self.local_point, self.local_normal, self.point, self.normal)
 
     def _nearest_vertices(self, bone: int, local: np.ndarray):
         """Nearest vertex of ``bone`` within reach of each point (K, 3), bone frame: ``(dist, index)``, inf and

@@ -176,3 +176,34 @@ def test_compiled_nearest_bone_vertex_matches_the_kd_tree():
     finite = np.isfinite(dist)
     assert np.abs(dist[finite] - expected_dist[finite]).max() < 1e-15
     assert 0.2 < finite.mean() < 0.98                                      # both cases occur
+
+
+def test_compiled_re_anchoring_picks_the_numpy_planes():
+    """The skin and teeth guards' once-per-frame re-anchoring (collision.BoneHalfSpaceGuard.refresh) in the
+    compiled loops (physics/anchor_kernel.py) must pick the same nodes, bone vertices and planes as the numpy
+    reference, with the jaw turned and the skin slid along the bones, the exact closest points included."""
+    import copy
+    from faces_hands_addon.face.rig import build_default_rig
+    face = build_default_rig("default").face
+    jaw = np.eye(4)
+    angle = np.radians(12.0)
+    jaw[1:3, 1:3] = [[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]]
+    jaw[:3, 3] = [0.0, -0.004, -0.006]
+    for name in ("bone_guard", "teeth_guard"):
+        guards = {backend: copy.deepcopy(getattr(face, name)) for backend in ("numpy", "numba")}
+        rng = np.random.default_rng(11)
+        x = face.network.positions.copy()
+        changed = 0
+        for round_ in range(4):
+            x = x + rng.normal(size=x.shape) * 0.0012                       # most nodes slide past 1.5 mm
+            for backend, guard in guards.items():
+                guard.backend = backend
+                guard.begin_frame()
+                guard.set_bone_transforms([np.eye(4), jaw if round_ % 2 else np.eye(4)])
+                guard.refresh(x)
+            reference, compiled = guards["numpy"], guards["numba"]
+            assert np.array_equal(reference.bone, compiled.bone)
+            for field in ("local_point", "local_normal", "point", "normal", "_last"):
+                assert np.abs(getattr(reference, field) - getattr(compiled, field)).max() < 1e-15, (name, field)
+            changed += int((reference.bone == 1).sum())
+        assert changed > 0                                                  # the jaw's planes were chosen too
