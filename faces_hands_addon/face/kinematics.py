@@ -11,7 +11,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .organs import cornea_bulge
+from ..physics import kernel
+from . import lid_kernel
+from .organs import CORNEA_BULGE, CORNEA_DEG, cornea_bulge
 
 __all__ = ["JawLimits", "rotation", "jaw_matrix", "opening_glide", "eye_matrix", "tongue_matrix", "LidRig", "EYE_YAW_DEG",
            "EYE_PITCH_DEG"]
@@ -242,6 +244,15 @@ class LidRig:
         """:meth:`rotate` for the lid's own nodes only: their rest positions (len(index), 3) in, rotated out
         (what a frame needs; the other nodes do not move)."""
         index = self.index
+        if kernel.loaded() and (rotate := kernel.compiled(lid_kernel.rotate_lid_nodes)) is not None:
+            out = np.empty_like(lid_rest, np.float64)
+            rotate(np.ascontiguousarray(lid_rest, np.float64), self.centre, self.theta_u[index], self.theta_l[index],
+                   self.open_share[index], self.weight[index], self.is_upper[index],
+                   self.surface[index].astype(np.float64), float(np.clip(close, 0.0, 1.0)),
+                   np.radians(EYE_PITCH_DEG) * float(np.clip(pitch, -1.0, 1.0)), float(np.clip(lift, 0.0, 1.0)),
+                   float(np.clip(squeeze, 0.0, 1.0)), self.FOLLOW_UPPER, self.FOLLOW_LOWER, self.RAISE, self.SQUEEZE,
+                   self.MEETING, self.clear_radius, self.eyeball_radius, CORNEA_DEG, CORNEA_BULGE, out)
+            return out
         angle = self.rotations(close, pitch, lift, squeeze, index)
         d = lid_rest - self.centre
         c, s = np.cos(angle), np.sin(angle)

@@ -207,3 +207,27 @@ def test_compiled_re_anchoring_picks_the_numpy_planes():
                 assert np.abs(getattr(reference, field) - getattr(compiled, field)).max() < 1e-15, (name, field)
             changed += int((reference.bone == 1).sum())
         assert changed > 0                                                  # the jaw's planes were chosen too
+
+
+def test_compiled_lid_rotation_matches_numpy(monkeypatch):
+    """The lids' per-frame rotation (face/lid_kernel.py, used once the kernel is loaded) against the numpy
+    reference (kinematics.LidRig.rotate_lid): closing, gaze, levator and squeeze, out-of-range values
+    clipped alike, the cornea lift included."""
+    from faces_hands_addon.face.rig import build_default_rig
+    lids = build_default_rig("default").template.organs.lids
+    kernel.substep_kernel()
+    assert kernel.loaded()
+    rng = np.random.default_rng(5)
+    rest = build_default_rig("default").template.skin.vertices
+    lifted = 0
+    for values in [(1.0, 0.0, 0.0, 0.0), (1.3, -1.4, 0.5, 1.2), *rng.uniform(-0.2, 1.2, (12, 4))]:
+        for lid in lids.values():
+            lid_rest = rest[lid.index]
+            compiled = lid.rotate_lid(lid_rest, *values)
+            with monkeypatch.context() as patch:
+                patch.setattr(kernel, "loaded", lambda: False)
+                reference = lid.rotate_lid(lid_rest, *values)
+            assert np.abs(compiled - reference).max() < 1e-15
+            lifted += int((np.linalg.norm(reference - lid.centre, axis=1)
+                           > np.linalg.norm(lid_rest - lid.centre, axis=1) + 1e-6).sum())
+    assert lifted > 0                                                      # the cornea lift acted
