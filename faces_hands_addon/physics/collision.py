@@ -10,7 +10,6 @@ loop (:mod:`.kernel`, when numba is importable).
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -25,49 +24,6 @@ def _compiled_guards(backend: str):
     if backend == "numba" or (backend == "auto" and kernel.loaded()):
         return kernel.guard_kernels()
     return None
-
-
-def _vertex_grid(vertices: np.ndarray, cell: float):
-    """Bone vertices bucketed in cubes of side ``cell`` (one bigger than nothing): ``(order, starts,
-    origin, dims)``, the vertices of cube c being ``order[starts[c]:starts[c + 1]]``."""
-    origin = vertices.min(axis=0)
-    dims = np.floor((vertices.max(axis=0) - origin) / cell).astype(np.int64) + 1
-    cube = np.minimum(np.floor((vertices - origin) / cell).astype(np.int64), dims - 1)
-    ids = (cube[:, 0] * dims[1] + cube[:, 1]) * dims[2] + cube[:, 2]
-    order = np.argsort(ids, kind="stable")
-    starts = np.searchsorted(ids[order], np.arange(int(np.prod(dims)) + 1))
-    return order.astype(np.int64), starts.astype(np.int64), origin, dims
-
-
-def _grid_nearest(points, vertices, order, starts, origin, cell, dims, reach, dist,
-                  index):  # pragma: no cover - compiled
-    """For each point the nearest vertex closer than ``reach`` (= ``cell``: the 27 cubes around the point's
-    cube hold every candidate), as ``cKDTree.query(points, distance_upper_bound=reach)`` answers it:
-    ``dist`` inf and ``index`` = len(vertices) where there is none. The numpy path asks the KD-tree."""
-    count = vertices.shape[0]
-    for p in range(points.shape[0]):
-        px, py, pz = points[p, 0], points[p, 1], points[p, 2]
-        cx = int(math.floor((px - origin[0]) / cell))
-        cy = int(math.floor((py - origin[1]) / cell))
-        cz = int(math.floor((pz - origin[2]) / cell))
-        best, pick = math.inf, count
-        for gx in range(max(cx - 1, 0), min(cx + 1, dims[0] - 1) + 1):
-            for gy in range(max(cy - 1, 0), min(cy + 1, dims[1] - 1) + 1):
-                for gz in range(max(cz - 1, 0), min(cz + 1, dims[2] - 1) + 1):
-                    cube = (gx * dims[1] + gy) * dims[2] + gz
-                    for s in range(starts[cube], starts[cube + 1]):
-                        v = order[s]
-                        dx = px - vertices[v, 0]
-                        dy = py - vertices[v, 1]
-                        dz = pz - vertices[v, 2]
-                        d2 = dx * dx + dy * dy + dz * dz
-                        if d2 < best or (d2 == best and v < pick):
-                            best, pick = d2, v
-        found = math.sqrt(best) if pick < count else math.inf
-        if found < reach:
-            dist[p], index[p] = found, pick
-        else:
-            dist[p], index[p] = math.inf, count
 
 
 class BoneHalfSpaceGuard:
@@ -178,7 +134,6 @@ class BoneHalfSpaceGuard:
         self._packed = None
         self._surfaces = [(np.ascontiguousarray(v, np.float64), np.asarray(n, np.float64), cKDTree(v))
                           for v, n in surfaces]
-        self._grids = [_vertex_grid(v, reach) for v, _, _ in self._surfaces]
         self._reach = reach
         self._exact = exact
         self._rest = None if rest is None else np.array(rest, np.float64)
@@ -307,16 +262,8 @@ class BoneHalfSpaceGuard:
 
     def _nearest_vertices(self, bone: int, local: np.ndarray):
         """Nearest vertex of ``bone`` within reach of each point (K, 3), bone frame: ``(dist, index)``, inf and
-        the vertex count where none is; the compiled grid search where the guards are compiled (the same
-        answer, ~5x faster than the KD-tree here), else the KD-tree."""
-        verts, _, tree = self._surfaces[bone]
-        search = kernel.compiled(_grid_nearest) if _compiled_guards(self.backend) is not None else None
-        if search is None:
-            return tree.query(local, distance_upper_bound=self._reach)
-        order, starts, origin, dims = self._grids[bone]
-        dist, index = np.empty(len(local)), np.empty(len(local), np.int64)
-        search(np.ascontiguousarray(local), verts, order, starts, origin, self._reach, dims, self._reach, dist, index)
-        return dist, index
+        the vertex count where none is (the KD-tree; the compiled refresh searches the same in a grid)."""
+        return self._surfaces[bone][2].query(local, distance_upper_bound=self._reach)
 
     def _refresh_own_bone(self, positions: np.ndarray, everything: bool) -> None:
         """:meth:`refresh` for :meth:`keep_own_bones`; ``_last`` holds node positions in their bone's frame."""

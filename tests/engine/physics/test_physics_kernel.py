@@ -155,27 +155,32 @@ def test_auto_backend_loads_numba_only_where_it_pays():
 
 def test_compiled_nearest_bone_vertex_matches_the_kd_tree():
     """The skin guard's re-anchoring asks for the nearest bone vertex within reach; the compiled grid
-    search (collision._grid_nearest) must give the KD-tree's answer: same vertex, same distance, none
-    beyond reach."""
+    search (anchor_kernel.nearest_in_bone: own cube first, farther cubes skipped) must give the KD-tree's
+    answer: same vertex, same distance, none beyond reach, on each of two packed bones."""
     from scipy.spatial import cKDTree
-    from faces_hands_addon.physics import collision
-    search = kernel.compiled(collision._grid_nearest)
+    from faces_hands_addon.physics import anchor_kernel
+    search = kernel.compiled(anchor_kernel.nearest_in_bone)
     assert search is not None
     rng = np.random.default_rng(9)
-    direction = rng.normal(size=(3000, 3))
-    vertices = 0.08 * direction / np.linalg.norm(direction, axis=1, keepdims=True) * [1.0, 1.2, 1.1]
     reach = 0.02
-    order, starts, origin, dims = collision._vertex_grid(vertices, reach)
-    points = vertices[rng.integers(0, len(vertices), 4000)] * rng.uniform(0.7, 1.4, (4000, 1))
-    points[:50] += 1.0                                                     # far outside the grid
-    dist, index = np.empty(len(points)), np.empty(len(points), np.int64)
-    search(points, vertices, order, starts, origin, reach, dims, reach, dist, index)
-    expected_dist, expected_index = cKDTree(vertices).query(points, distance_upper_bound=reach)
-    assert np.array_equal(index, expected_index)
-    assert np.array_equal(np.isinf(dist), np.isinf(expected_dist))
-    finite = np.isfinite(dist)
-    assert np.abs(dist[finite] - expected_dist[finite]).max() < 1e-15
-    assert 0.2 < finite.mean() < 0.98                                      # both cases occur
+    bones = []
+    for scale in ([1.0, 1.2, 1.1], [0.6, 0.5, 0.7]):
+        direction = rng.normal(size=(3000, 3))
+        bones.append(0.08 * direction / np.linalg.norm(direction, axis=1, keepdims=True) * scale)
+    grids = anchor_kernel.pack_grids([(v, -v) for v in bones], reach)
+    for bone, vertices in enumerate(bones):
+        points = vertices[rng.integers(0, len(vertices), 4000)] * rng.uniform(0.7, 1.4, (4000, 1))
+        points[:50] += 1.0                                                     # far outside the grid
+        found = [search(*p, bone, grids.vertices, grids.vertex_start, grids.order, grids.starts, grids.cube_start,
+                        grids.origin, grids.dims, grids.cell, reach) for p in points]
+        dist = np.array([d for d, _ in found])
+        index = np.array([v - grids.vertex_start[bone] if v >= 0 else len(vertices) for _, v in found])
+        expected_dist, expected_index = cKDTree(vertices).query(points, distance_upper_bound=reach)
+        assert np.array_equal(index, expected_index)
+        assert np.array_equal(np.isinf(dist), np.isinf(expected_dist))
+        finite = np.isfinite(dist)
+        assert np.abs(dist[finite] - expected_dist[finite]).max() < 1e-15
+        assert 0.2 < finite.mean() < 0.98                                      # both cases occur
 
 
 def test_compiled_re_anchoring_picks_the_numpy_planes():
