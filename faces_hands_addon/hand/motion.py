@@ -6,6 +6,15 @@ smooth spline function (Hermite), which is evaluated at discrete points in time"
 Poses (``presets/hand/poses.json``) are contraction values; a motion is a list of ``[time, pose]`` keys. Between
 keys every contraction follows a cubic Hermite segment with Catmull-Rom tangents (zero at the ends),
 clamped to [0, 1]; the same keys become Bezier F-curves in Blender (auto-clamped handles, also cubic).
+
+A pose may carry a second stage, beyond the thesis: ``"squeeze"`` sets the contractions it names once the
+first stage has settled (a fist closes, then squeezes isometrically: the thenar muscles contract while the
+thumb rests on the curled fingers, :mod:`.thumb_contact`, so the thenar eminence swells, Fig. 6.18, without
+the thumb crossing the palm before the fingers have closed). :func:`pose_stages` gives both stages,
+``HandRig.settled(..., squeeze=...)`` settles them in turn. Motions key only the first stage: keyed as a
+later key (0.3-1.3 s after the fist's), the squeeze's rising thenar contraction swung the still-moving thumb
+across the palm before it had come to rest on the fingers (the thumb's tip ended 89 mm from the staged
+pose's, at its CMC limits), so a squeeze needs the settled first stage that only :meth:`settled` gives.
 """
 from __future__ import annotations
 
@@ -14,8 +23,8 @@ import numpy as np
 from ..core.errors import UserError
 from .presets import poses_preset
 
-__all__ = ["pose_names", "motion_names", "pose_contractions", "motion_keys", "hermite", "motion_table",
-           "checked_contractions"]
+__all__ = ["pose_names", "motion_names", "pose_contractions", "pose_squeeze", "pose_stages", "motion_keys",
+           "hermite", "motion_table", "checked_contractions"]
 
 
 def checked_contractions(values: dict, muscles: list[str], where: str) -> dict[str, float]:
@@ -47,8 +56,28 @@ def pose_contractions(name: str, muscles: list[str]) -> dict[str, float]:
     return checked_contractions(poses[name].get("contractions", {}), muscles, f"hand pose {name!r}")
 
 
+def pose_squeeze(name: str, muscles: list[str]) -> dict[str, float]:
+    """The second stage of pose ``name``: the contractions its ``"squeeze"`` sets once the pose has settled
+    (empty for a pose without one; checked like the contractions)."""
+    poses = poses_preset()["poses"]
+    if name not in poses:
+        raise UserError(f"unknown hand pose {name!r}; the poses are {', '.join(sorted(poses))}")
+    squeeze = poses[name].get("squeeze", {})
+    if not isinstance(squeeze, dict):
+        raise UserError(f"hand pose {name!r}: \"squeeze\" must map muscle names to contractions in [0, 1]")
+    return checked_contractions(squeeze, muscles, f"hand pose {name!r} squeeze")
+
+
+def pose_stages(name: str, muscles: list[str]) -> list[dict[str, float]]:
+    """The contractions of pose ``name`` stage by stage: the pose, then (if it has a squeeze) the pose with the
+    squeeze's contractions set."""
+    pose, squeeze = pose_contractions(name, muscles), pose_squeeze(name, muscles)
+    return [pose, {**pose, **squeeze}] if squeeze else [pose]
+
+
 def motion_keys(name: str, muscles: list[str]) -> tuple[np.ndarray, list[dict[str, float]]]:
-    """Key times (s) and the contractions at each key of a motion (or of a single pose held for 1 s)."""
+    """Key times (s) and the contractions at each key of a motion (or of a single pose held for 1 s): a staged
+    pose's first stage only (module docstring)."""
     doc = poses_preset()
     motions = doc.get("motions", {})
     if name in doc["poses"] and name not in motions:

@@ -67,6 +67,9 @@ class ThumbContact:
         self.dofs = np.array([skeleton.dof(b, k) for b, k in DOFS])
         self.bones = np.array([skeleton.index[b] for b, _ in DOFS])
         self.signs = np.array([skeleton.dofs[k].sign for k in self.dofs])
+        # every DOF of the thumb's bones (the CMC's rotation and the MCP's abduction too), held while it sticks
+        self.held_dofs = np.array(sorted(k for (bone, _), k in skeleton.dof_index.items()
+                                         if bone.startswith("thumb-")))
         self.flexion = skeleton.dof("thumb-metacarpal", "flexion")
         # which samples each DOF carries: every DOF at or above the sample's bone in the thumb's chain
         self.moves = np.array([[b in skeleton.chain_below(int(bone)) for b in self.owner] for bone in self.bones])
@@ -118,14 +121,16 @@ class ThumbContact:
             + transforms[parents][:, :3, 3]
         return axes * self.signs[:, None], centres
 
-    def _rows(self, transforms: np.ndarray, angles: np.ndarray, measured=None) -> tuple[np.ndarray, np.ndarray]:
-        """Shortfalls (R,) of the thumb samples nearer a finger than ``distance`` and their Jacobian (R, D)."""
+    def _rows(self, transforms: np.ndarray, angles: np.ndarray, measured=None,
+              margin: float = TOLERANCE) -> tuple[np.ndarray, np.ndarray]:
+        """Shortfalls (R,) of the thumb samples nearer a finger than ``distance`` less ``margin`` and their
+        Jacobian (R, D): how fast each one's clearance grows per radian of each DOF."""
         points, between, square = self._measure(transforms) if measured is None else measured
         nearest = np.argmin(square - self.distance, axis=1)
         rows = np.arange(len(points))
         gap, want = square[rows, nearest], self.distance[rows, nearest]
         self._clearance = gap - want
-        close = np.flatnonzero(want - gap > TOLERANCE)
+        close = np.flatnonzero(want - gap > margin)
         if len(close) == 0:
             return np.zeros(0), np.zeros((0, len(self.dofs)))
         normal = between[close, nearest[close]] / np.maximum(gap[close], 1e-9)[:, None]
@@ -152,11 +157,15 @@ class ThumbContact:
             return transforms
         measured = None
         if self._held is not None:              # sticking: held unless every sample moved off the fingers
-            held, before = self._held
+            held, before, pressing = self._held
+            turn = angles[dofs] - held[np.searchsorted(self.held_dofs, dofs)]
             measured = self._measure(transforms)
-            if np.any(self.gaps(transforms, measured) < before - 1e-5):
-                angles[dofs] = held
-                pseudo.velocity[dofs] = 0.0
+            # a turn that presses a touching sample into the fingers at the held angles is stopped there too
+            # when, over one frame, it carried the thumb right through them (a squeeze, :mod:`.motion`)
+            if np.any(self.gaps(transforms, measured) < before - 1e-5) or \
+                    np.any(pressing @ turn < -1e-5):
+                angles[self.held_dofs] = held
+                pseudo.velocity[self.held_dofs] = 0.0
                 transforms, measured = self.skeleton.bone_transforms(angles), None
         moved = True
         for _ in range(SWEEPS):
@@ -169,5 +178,7 @@ class ThumbContact:
             transforms = self.skeleton.bone_transforms(angles)
             moved = True
         gaps = self.gaps(transforms) if moved else self._clearance
-        self._held = (angles[dofs].copy(), gaps) if -STICK < gaps.min() < STICK else None
+        self._held = None
+        if -STICK < gaps.min() < STICK:
+            self._held = (angles[self.held_dofs].copy(), gaps, self._rows(transforms, angles, None, -STICK)[1])
         return transforms
