@@ -117,8 +117,8 @@ GRIP = {
 }
 
 MOTIONS = {
-    "wave_to_fist": ("opens the hand, makes a fist, opens again",
-                     [[0.0, "relaxed"], [0.6, "spread"], [1.4, "fist"], [2.2, "relaxed"]]),
+    "wave_to_fist": ("opens the hand, makes a fist and squeezes it, opens again",
+                     [[0.0, "relaxed"], [0.6, "spread"], [1.4, "fist"], [3.4, "relaxed"]]),
     "counting": ("points, pinches, gives a thumbs up", [[0.0, "relaxed"], [0.8, "point"], [1.6, "pinch"],
                                                          [2.4, "thumbs_up"], [3.2, "relaxed"]]),
     "showcase": ("relaxed, fist, point, thumbs up, spread, pinch, relaxed",
@@ -171,8 +171,9 @@ def main(names: list[str]) -> int:
                            "by Solve Contractions from target joint angles (scripts/hand_pose_presets.py), and motions"
                            " as [time in seconds, pose] keys, interpolated with Hermite splines (6.2.1). A pose may "
                            "add \"squeeze\": contractions set once the pose has settled (a second stage: the fist "
-                           "closes, then squeezes, so the thenar swells while the thumb rests on the fingers); motions"
-                           " key only the first stage (faces_hands_addon/hand/motion.py says why)."),
+                           "closes, then squeezes, so the thenar swells while the thumb rests on the fingers); a "
+                           "motion holds the pose 1 s, keys its squeeze 0.3 s later and lets go of it 0.3 s before the"
+                           " next key (when there is room for that)."),
            "poses": {k: poses[k] for k in TARGETS if k in poses},
            "motions": {k: {"description": d, "keys": keys} for k, (d, keys) in MOTIONS.items()}}
     path.write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")

@@ -11,10 +11,13 @@ A pose may carry a second stage, beyond the thesis: ``"squeeze"`` sets the contr
 first stage has settled (a fist closes, then squeezes isometrically: the thenar muscles contract while the
 thumb rests on the curled fingers, :mod:`.thumb_contact`, so the thenar eminence swells, Fig. 6.18, without
 the thumb crossing the palm before the fingers have closed). :func:`pose_stages` gives both stages,
-``HandRig.settled(..., squeeze=...)`` settles them in turn. Motions key only the first stage: keyed as a
-later key (0.3-1.3 s after the fist's), the squeeze's rising thenar contraction swung the still-moving thumb
-across the palm before it had come to rest on the fingers (the thumb's tip ended 89 mm from the staged
-pose's, at its CMC limits), so a squeeze needs the settled first stage that only :meth:`settled` gives.
+``HandRig.settled(..., squeeze=...)`` settles them in turn, and a motion holds a staged pose's key for
+:data:`SQUEEZE_AFTER` seconds, keys its squeeze :data:`SQUEEZE_RISE` after that (close, then squeeze) and
+lets go of it :data:`SQUEEZE_RISE` before the next key (a hand opening while the thenar still pulled swung the
+released thumb across the palm). The thumb must have come to rest on the fingers first: with the squeeze keyed 0.3 s after the fist's key, or with
+Catmull-Rom tangents that let the held contractions sag before the squeeze (hence the clamped tangents of
+:func:`hermite`), the rising thenar contraction swung the still-moving thumb across the palm to its CMC limits
+(its tip 89 mm from the staged pose's).
 """
 from __future__ import annotations
 
@@ -24,7 +27,10 @@ from ..core.errors import UserError
 from .presets import poses_preset
 
 __all__ = ["pose_names", "motion_names", "pose_contractions", "pose_squeeze", "pose_stages", "motion_keys",
-           "hermite", "motion_table", "checked_contractions"]
+           "hermite", "motion_table", "checked_contractions", "SQUEEZE_AFTER", "SQUEEZE_RISE"]
+
+SQUEEZE_AFTER = 1.0     # s a staged pose's key is held in a motion before its squeeze rises (the thumb settles)
+SQUEEZE_RISE = 0.3      # s the squeeze takes to rise
 
 
 def checked_contractions(values: dict, muscles: list[str], where: str) -> dict[str, float]:
@@ -76,13 +82,17 @@ def pose_stages(name: str, muscles: list[str]) -> list[dict[str, float]]:
 
 
 def motion_keys(name: str, muscles: list[str]) -> tuple[np.ndarray, list[dict[str, float]]]:
-    """Key times (s) and the contractions at each key of a motion (or of a single pose held for 1 s): a staged
-    pose's first stage only (module docstring)."""
+    """Key times (s) and the contractions at each key of a motion (or of a single pose held for 1 s); a staged
+    pose's key is held :data:`SQUEEZE_AFTER`, its squeeze keyed :data:`SQUEEZE_RISE` later and let go again
+    :data:`SQUEEZE_RISE` before the next key, when the motion leaves room for that (module docstring)."""
     doc = poses_preset()
     motions = doc.get("motions", {})
     if name in doc["poses"] and name not in motions:
-        pose = pose_contractions(name, muscles)
-        return np.array([0.0, 0.5, 1.5]), [{}, pose, pose]
+        stages = pose_stages(name, muscles)
+        if len(stages) == 1:
+            return np.array([0.0, 0.5, 1.5]), [{}, stages[0], stages[0]]
+        times = [0.0, 0.5, 0.5 + SQUEEZE_AFTER, 0.5 + SQUEEZE_AFTER + SQUEEZE_RISE, 1.5 + SQUEEZE_AFTER + SQUEEZE_RISE]
+        return np.array(times), [{}, stages[0], stages[0], stages[1], stages[1]]
     if name not in motions:
         raise UserError(f"unknown hand motion or pose {name!r}; motions: {', '.join(sorted(motions))}; poses: "
                         f"{', '.join(sorted(doc['poses']))}")
@@ -92,19 +102,36 @@ def motion_keys(name: str, muscles: list[str]) -> tuple[np.ndarray, list[dict[st
         if not (isinstance(key, list) and len(key) == 2 and isinstance(key[0], (int, float)) and isinstance(key[1], str)):
             raise UserError(f"hand motion {name!r}: every key must be [seconds, pose name], got {key!r}")
         times.append(float(key[0]))
-        poses.append(pose_contractions(key[1], muscles))
+        poses.append(pose_stages(key[1], muscles))
     if len(times) < 2 or np.any(np.diff(times) <= 0):
         raise UserError(f"hand motion {name!r}: needs at least two keys with increasing times")
-    return np.array(times), poses
+    out_times, out_poses = [], []
+    for k, (time, stages) in enumerate(zip(times, poses)):
+        out_times.append(time)
+        out_poses.append(stages[0])
+        last = k + 1 == len(times)
+        room = np.inf if last else times[k + 1] - time
+        if len(stages) > 1 and room >= SQUEEZE_AFTER + 3 * SQUEEZE_RISE:
+            out_times += [time + SQUEEZE_AFTER, time + SQUEEZE_AFTER + SQUEEZE_RISE]
+            out_poses += [stages[0], stages[1]]
+            if not last:                # let go of the squeeze before the hand leaves the pose
+                out_times.append(times[k + 1] - SQUEEZE_RISE)
+                out_poses.append(stages[0])
+    return np.array(out_times), out_poses
 
 
 def hermite(times: np.ndarray, values: np.ndarray, at: np.ndarray) -> np.ndarray:
     """Cubic Hermite interpolation of ``values`` (K, C) keyed at ``times`` (K,), Catmull-Rom tangents with zero
-    tangents at the first and last key, evaluated at ``at`` and clamped to [0, 1]."""
+    tangents at the first and last key and at every peak, dip or held value, evaluated at ``at`` and clamped to
+    [0, 1]."""
     times, values, at = np.asarray(times, float), np.asarray(values, float), np.asarray(at, float)
     tangents = np.zeros_like(values)
     if len(times) > 2:
         tangents[1:-1] = (values[2:] - values[:-2]) / (times[2:] - times[:-2])[:, None]
+        # clamped, as Blender's auto-clamped handles: flat at a key that is a peak, a dip or a held value, so
+        # a held contraction does not sag before it rises (a squeeze after its pose, :func:`motion_keys`)
+        before, after = values[1:-1] - values[:-2], values[2:] - values[1:-1]
+        tangents[1:-1][before * after <= 0] = 0.0
     k = np.clip(np.searchsorted(times, at, side="right") - 1, 0, len(times) - 2)
     span = times[k + 1] - times[k]
     u = np.clip((at - times[k]) / span, 0.0, 1.0)[:, None]

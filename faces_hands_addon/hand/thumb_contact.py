@@ -44,6 +44,7 @@ SWEEPS = 4
 TOLERANCE = 2e-4          # m of shortfall left alone
 MAX_TURN = np.radians(6.0)
 STICK = 0.001             # m: a thumb this near its contact distance is touching (sticking friction)
+RELEASE = 0.003           # m: a held thumb stays held within this (the fingers settling under it part by ~0.1 mm)
 
 
 def _points(skeleton: Skeleton, bones: list[int], samples: int) -> tuple[np.ndarray, np.ndarray]:
@@ -167,7 +168,7 @@ class ThumbContact:
                 angles[self.held_dofs] = held
                 pseudo.velocity[self.held_dofs] = 0.0
                 transforms, measured = self.skeleton.bone_transforms(angles), None
-        moved = True
+        moved, was_held = True, self._held is not None
         for _ in range(SWEEPS):
             shorts, jac = self._rows(transforms, angles, measured)
             measured, moved = None, False
@@ -179,6 +180,6 @@ class ThumbContact:
             moved = True
         gaps = self.gaps(transforms) if moved else self._clearance
         self._held = None
-        if -STICK < gaps.min() < STICK:
-            self._held = (angles[self.held_dofs].copy(), gaps, self._rows(transforms, angles, None, -STICK)[1])
+        if -STICK < gaps.min() < (RELEASE if was_held else STICK):
+            self._held = (angles[self.held_dofs].copy(), gaps, self._rows(transforms, angles, None, -RELEASE)[1])
         return transforms

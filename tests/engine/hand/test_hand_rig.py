@@ -174,6 +174,18 @@ def test_hermite_passes_through_its_keys_and_stays_in_range():
     assert np.all(np.abs(np.diff(dense, axis=0)) < 0.05)                        # smooth
 
 
+def test_a_staged_pose_in_a_motion_squeezes_after_its_key_and_lets_go_before_the_next(rig):
+    names = rig.muscle_names
+    times, keyed = motion.motion_keys("wave_to_fist", names)
+    fist, squeezed = motion.pose_stages("fist", names)
+    k = keyed.index(fist)
+    assert keyed[k + 1] == fist and keyed[k + 2] == squeezed and keyed[k + 3] == fist
+    assert times[k + 1] - times[k] == pytest.approx(motion.SQUEEZE_AFTER)
+    assert times[k + 4] - times[k + 3] == pytest.approx(motion.SQUEEZE_RISE)
+    times, keyed = motion.motion_keys("showcase", names)                 # no room: the fist's first stage only
+    assert squeezed not in keyed and fist in keyed
+
+
 def test_every_preset_pose_and_motion_reads(rig):
     assert {"fist", "point", "thumbs_up", "pinch", "spread", "relaxed", "computer_graphics_scientist"} <= set(
         motion.pose_names())

@@ -233,3 +233,32 @@ def test_the_fist_squeezes_with_its_thumb_curled_on_the_fingers(rig):
     geo = rig.geometric
     nodes = np.isin(geo.footprint_owner(), [geo.names.index(name) for name in EMINENCES["thenar"]])
     assert lift[nodes].max() * 1000 >= 3.0 and (lift[nodes] > 0.001).sum() >= 30
+
+
+def test_a_keyed_fist_closes_then_squeezes_with_its_thumb_held(rig):
+    """The fist keyed as a motion (hand/motion.py: the pose held 1 s, then its squeeze 0.3 s later, clamped
+    Hermite tangents so the held contractions do not sag) plays close-then-squeeze: at its end the thenar is
+    lifted and the thumb lies where the closed fist put it. With the squeeze keyed 0.3 s after the pose (or with
+    Catmull-Rom tangents) the thumb swung across the palm to its CMC limits, the tip 89 mm away."""
+    names = rig.muscle_names
+    times, keyed = motion.motion_keys("fist", names)
+    stages = motion.pose_stages("fist", names)
+    assert keyed[1] == keyed[2] == stages[0] and keyed[3] == stages[1] and times[3] - times[1] >= 1.0
+    at, table = motion.motion_table("fist", names, 30.0)
+    held = (at >= times[1]) & (at <= times[2])
+    opponens = names.index("opponens_pollicis")
+    assert np.all(table[held, opponens] >= stages[0]["opponens_pollicis"] - 1e-9)    # no sag before the squeeze
+    rig.reset()
+    rig.settled({"ctrl": stages[0]}, 3.0)
+    closed = rig.joint_angles
+    rig.reset()
+    for row in table:
+        rig.step({"ctrl": dict(zip(names, row))}, 1 / 30)
+    lift, _, _ = rig.bulge_lift(rig.joint_angles)
+    angles = rig.joint_angles
+    rig.reset()
+    thumb = [k for (bone, _), k in rig.skeleton.dof_index.items() if bone.startswith("thumb-")]
+    assert np.degrees(np.abs(angles - closed)[thumb]).max() < 4.0
+    geo = rig.geometric
+    nodes = np.isin(geo.footprint_owner(), [geo.names.index(name) for name in EMINENCES["thenar"]])
+    assert lift[nodes].max() * 1000 >= 3.0
