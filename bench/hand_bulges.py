@@ -86,6 +86,7 @@ def main() -> int:
                           f"lift (mm) {by_region}")
                     result[f"{name}_lift_mm"] = f"{lift_mm.max():.1f}"
                     result[f"{name}_nodes_1mm"] = str(int((lift_mm > 1.0).sum()))
+                    result[f"{name}_thenar_mm"] = f"{lift_mm[regions['thenar']].max():.1f}"
                 changed, hand, mask = changed_pixels(image_on, image_off)
                 print(f"  {view}: {changed} of {hand} hand pixels change by more than {LEVELS} levels "
                       f"({100.0 * changed / max(hand, 1):.1f} %)")

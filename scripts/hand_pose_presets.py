@@ -117,8 +117,8 @@ GRIP = {
 }
 
 MOTIONS = {
-    "wave_to_fist": ("opens the hand, makes a fist, opens again",
-                     [[0.0, "relaxed"], [0.6, "spread"], [1.4, "fist"], [2.2, "relaxed"]]),
+    "wave_to_fist": ("opens the hand, makes a fist and squeezes it, opens again",
+                     [[0.0, "relaxed"], [0.6, "spread"], [1.4, "fist"], [3.4, "relaxed"]]),
     "counting": ("points, pinches, gives a thumbs up", [[0.0, "relaxed"], [0.8, "point"], [1.6, "pinch"],
                                                          [2.4, "thumbs_up"], [3.2, "relaxed"]]),
     "showcase": ("relaxed, fist, point, thumbs up, spread, pinch, relaxed",
@@ -163,11 +163,17 @@ def main(names: list[str]) -> int:
         worst = int(np.argmax(error * rig.pseudo.dynamic))
         print(f"{name:28s} residual {residual:.3f} N m, mean error {error[rig.pseudo.dynamic].mean():.1f} deg,"
               f" worst {sk.dof_names()[worst]} {error[worst]:.1f} deg")
-        poses[name] = {"description": description, "contractions": contractions}
+        squeeze = poses.get(name, {}).get("squeeze")        # a staged pose's second stage is kept as it is
+        poses[name] = {"description": description, "contractions": contractions,
+                       **({"squeeze": squeeze} if squeeze else {})}
     doc = {"format": "faces_hands.hand_poses", "version": 1,
-           "description": "Whole-hand poses as pseudo-muscle contractions (0..1; muscles not named stay at 0), found "
-                          "by Solve Contractions from target joint angles (scripts/hand_pose_presets.py), and "
-                          "motions as [time in seconds, pose] keys, interpolated with Hermite splines (6.2.1).",
+           "description": ("Whole-hand poses as pseudo-muscle contractions (0..1; muscles not named stay at 0), found "
+                           "by Solve Contractions from target joint angles (scripts/hand_pose_presets.py), and motions"
+                           " as [time in seconds, pose] keys, interpolated with Hermite splines (6.2.1). A pose may "
+                           "add \"squeeze\": contractions set once the pose has settled (a second stage: the fist "
+                           "closes, then squeezes, so the thenar swells while the thumb rests on the fingers); a "
+                           "motion holds the pose 1 s, keys its squeeze 0.3 s later and lets go of it 0.3 s before the"
+                           " next key (when there is room for that)."),
            "poses": {k: poses[k] for k in TARGETS if k in poses},
            "motions": {k: {"description": d, "keys": keys} for k, (d, keys) in MOTIONS.items()}}
     path.write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")

@@ -6,6 +6,18 @@ smooth spline function (Hermite), which is evaluated at discrete points in time"
 Poses (``presets/hand/poses.json``) are contraction values; a motion is a list of ``[time, pose]`` keys. Between
 keys every contraction follows a cubic Hermite segment with Catmull-Rom tangents (zero at the ends),
 clamped to [0, 1]; the same keys become Bezier F-curves in Blender (auto-clamped handles, also cubic).
+
+A pose may carry a second stage, beyond the thesis: ``"squeeze"`` sets the contractions it names once the
+first stage has settled (a fist closes, then squeezes isometrically: the thenar muscles contract while the
+thumb rests on the curled fingers, :mod:`.thumb_contact`, so the thenar eminence swells, Fig. 6.18, without
+the thumb crossing the palm before the fingers have closed). :func:`pose_stages` gives both stages,
+``HandRig.settled(..., squeeze=...)`` settles them in turn, and a motion holds a staged pose's key for
+:data:`SQUEEZE_AFTER` seconds, keys its squeeze :data:`SQUEEZE_RISE` after that (close, then squeeze) and
+lets go of it :data:`SQUEEZE_RISE` before the next key (a hand opening while the thenar still pulled swung the
+released thumb across the palm). The thumb must have come to rest on the fingers first: with the squeeze keyed 0.3 s after the fist's key, or with
+Catmull-Rom tangents that let the held contractions sag before the squeeze (hence the clamped tangents of
+:func:`hermite`), the rising thenar contraction swung the still-moving thumb across the palm to its CMC limits
+(its tip 89 mm from the staged pose's).
 """
 from __future__ import annotations
 
@@ -14,8 +26,11 @@ import numpy as np
 from ..core.errors import UserError
 from .presets import poses_preset
 
-__all__ = ["pose_names", "motion_names", "pose_contractions", "motion_keys", "hermite", "motion_table",
-           "checked_contractions"]
+__all__ = ["pose_names", "motion_names", "pose_contractions", "pose_squeeze", "pose_stages", "motion_keys",
+           "hermite", "motion_table", "checked_contractions", "SQUEEZE_AFTER", "SQUEEZE_RISE"]
+
+SQUEEZE_AFTER = 1.0     # s a staged pose's key is held in a motion before its squeeze rises (the thumb settles)
+SQUEEZE_RISE = 0.3      # s the squeeze takes to rise
 
 
 def checked_contractions(values: dict, muscles: list[str], where: str) -> dict[str, float]:
@@ -47,13 +62,37 @@ def pose_contractions(name: str, muscles: list[str]) -> dict[str, float]:
     return checked_contractions(poses[name].get("contractions", {}), muscles, f"hand pose {name!r}")
 
 
+def pose_squeeze(name: str, muscles: list[str]) -> dict[str, float]:
+    """The second stage of pose ``name``: the contractions its ``"squeeze"`` sets once the pose has settled
+    (empty for a pose without one; checked like the contractions)."""
+    poses = poses_preset()["poses"]
+    if name not in poses:
+        raise UserError(f"unknown hand pose {name!r}; the poses are {', '.join(sorted(poses))}")
+    squeeze = poses[name].get("squeeze", {})
+    if not isinstance(squeeze, dict):
+        raise UserError(f"hand pose {name!r}: \"squeeze\" must map muscle names to contractions in [0, 1]")
+    return checked_contractions(squeeze, muscles, f"hand pose {name!r} squeeze")
+
+
+def pose_stages(name: str, muscles: list[str]) -> list[dict[str, float]]:
+    """The contractions of pose ``name`` stage by stage: the pose, then (if it has a squeeze) the pose with the
+    squeeze's contractions set."""
+    pose, squeeze = pose_contractions(name, muscles), pose_squeeze(name, muscles)
+    return [pose, {**pose, **squeeze}] if squeeze else [pose]
+
+
 def motion_keys(name: str, muscles: list[str]) -> tuple[np.ndarray, list[dict[str, float]]]:
-    """Key times (s) and the contractions at each key of a motion (or of a single pose held for 1 s)."""
+    """Key times (s) and the contractions at each key of a motion (or of a single pose held for 1 s); a staged
+    pose's key is held :data:`SQUEEZE_AFTER`, its squeeze keyed :data:`SQUEEZE_RISE` later and let go again
+    :data:`SQUEEZE_RISE` before the next key, when the motion leaves room for that (module docstring)."""
     doc = poses_preset()
     motions = doc.get("motions", {})
     if name in doc["poses"] and name not in motions:
-        pose = pose_contractions(name, muscles)
-        return np.array([0.0, 0.5, 1.5]), [{}, pose, pose]
+        stages = pose_stages(name, muscles)
+        if len(stages) == 1:
+            return np.array([0.0, 0.5, 1.5]), [{}, stages[0], stages[0]]
+        times = [0.0, 0.5, 0.5 + SQUEEZE_AFTER, 0.5 + SQUEEZE_AFTER + SQUEEZE_RISE, 1.5 + SQUEEZE_AFTER + SQUEEZE_RISE]
+        return np.array(times), [{}, stages[0], stages[0], stages[1], stages[1]]
     if name not in motions:
         raise UserError(f"unknown hand motion or pose {name!r}; motions: {', '.join(sorted(motions))}; poses: "
                         f"{', '.join(sorted(doc['poses']))}")
@@ -63,19 +102,36 @@ def motion_keys(name: str, muscles: list[str]) -> tuple[np.ndarray, list[dict[st
         if not (isinstance(key, list) and len(key) == 2 and isinstance(key[0], (int, float)) and isinstance(key[1], str)):
             raise UserError(f"hand motion {name!r}: every key must be [seconds, pose name], got {key!r}")
         times.append(float(key[0]))
-        poses.append(pose_contractions(key[1], muscles))
+        poses.append(pose_stages(key[1], muscles))
     if len(times) < 2 or np.any(np.diff(times) <= 0):
         raise UserError(f"hand motion {name!r}: needs at least two keys with increasing times")
-    return np.array(times), poses
+    out_times, out_poses = [], []
+    for k, (time, stages) in enumerate(zip(times, poses)):
+        out_times.append(time)
+        out_poses.append(stages[0])
+        last = k + 1 == len(times)
+        room = np.inf if last else times[k + 1] - time
+        if len(stages) > 1 and room >= SQUEEZE_AFTER + 3 * SQUEEZE_RISE:
+            out_times += [time + SQUEEZE_AFTER, time + SQUEEZE_AFTER + SQUEEZE_RISE]
+            out_poses += [stages[0], stages[1]]
+            if not last:                # let go of the squeeze before the hand leaves the pose
+                out_times.append(times[k + 1] - SQUEEZE_RISE)
+                out_poses.append(stages[0])
+    return np.array(out_times), out_poses
 
 
 def hermite(times: np.ndarray, values: np.ndarray, at: np.ndarray) -> np.ndarray:
     """Cubic Hermite interpolation of ``values`` (K, C) keyed at ``times`` (K,), Catmull-Rom tangents with zero
-    tangents at the first and last key, evaluated at ``at`` and clamped to [0, 1]."""
+    tangents at the first and last key and at every peak, dip or held value, evaluated at ``at`` and clamped to
+    [0, 1]."""
     times, values, at = np.asarray(times, float), np.asarray(values, float), np.asarray(at, float)
     tangents = np.zeros_like(values)
     if len(times) > 2:
         tangents[1:-1] = (values[2:] - values[:-2]) / (times[2:] - times[:-2])[:, None]
+        # clamped, as Blender's auto-clamped handles: flat at a key that is a peak, a dip or a held value, so
+        # a held contraction does not sag before it rises (a squeeze after its pose, :func:`motion_keys`)
+        before, after = values[1:-1] - values[:-2], values[2:] - values[1:-1]
+        tangents[1:-1][before * after <= 0] = 0.0
     k = np.clip(np.searchsorted(times, at, side="right") - 1, 0, len(times) - 2)
     span = times[k + 1] - times[k]
     u = np.clip((at - times[k]) / span, 0.0, 1.0)[:, None]

@@ -31,7 +31,7 @@ GEOMETRIC = register_format(PresetFormat("faces_hands.hand_geometric_muscles", 1
                  "thickness_mm": [NUMBER], "skin_distance_mm": NUMBER, "rows": NUMBER, "columns": NUMBER,
                  "bulge": NUMBER}]}))
 POSES = register_format(PresetFormat("faces_hands.hand_poses", 1, required=("poses",), shape={
-    "poses": {str: {"description": str, "contractions": {str: NUMBER}}},
+    "poses": {str: {"description": str, "contractions": {str: NUMBER}, "squeeze": {str: NUMBER}}},
     "motions": {str: {"description": str, "keys": [[ANY]]}}}))
 PHOTO_POINTS = register_format(PresetFormat("faces_hands.hand_photo_points", 1, required=("points", "ruler"), shape={
     "points": {str: [NUMBER]}, "ruler": [[NUMBER]], "ruler_mm": NUMBER, "image": str, "side": str}))

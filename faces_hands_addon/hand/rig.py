@@ -138,11 +138,17 @@ class HandRig:
         self.step_frame(dt)
         return self.pose()
 
-    def settled(self, layer_values: LayerValues, max_time: float = 2.0, dt: float = 1 / 30) -> Pose:
-        """The pose the hand settles into from rest with the mixed ``layer_values``."""
+    def settled(self, layer_values: LayerValues, max_time: float = 2.0, dt: float = 1 / 30,
+                squeeze: Mapping[str, float] | None = None) -> Pose:
+        """The pose the hand settles into from rest with the mixed ``layer_values``; with ``squeeze`` (a staged
+        pose's second stage, :func:`.motion.pose_stages`) those contractions are then set and the hand settles
+        again from there (up to ``max_time`` each)."""
         self.reset()
         self.set_controls(mix(layer_values, self.specs))
         self.settle(max_time, dt)
+        if squeeze:
+            self.set_controls(squeeze)
+            self.settle(max_time, dt)
         return self.pose()
 
     def rest_pose(self) -> Pose:

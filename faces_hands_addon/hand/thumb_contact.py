@@ -44,6 +44,7 @@ SWEEPS = 4
 TOLERANCE = 2e-4          # m of shortfall left alone
 MAX_TURN = np.radians(6.0)
 STICK = 0.001             # m: a thumb this near its contact distance is touching (sticking friction)
+RELEASE = 0.003           # m: a held thumb stays held within this (the fingers settling under it part by ~0.1 mm)
 
 
 def _points(skeleton: Skeleton, bones: list[int], samples: int) -> tuple[np.ndarray, np.ndarray]:
@@ -67,6 +68,9 @@ class ThumbContact:
         self.dofs = np.array([skeleton.dof(b, k) for b, k in DOFS])
         self.bones = np.array([skeleton.index[b] for b, _ in DOFS])
         self.signs = np.array([skeleton.dofs[k].sign for k in self.dofs])
+        # every DOF of the thumb's bones (the CMC's rotation and the MCP's abduction too), held while it sticks
+        self.held_dofs = np.array(sorted(k for (bone, _), k in skeleton.dof_index.items()
+                                         if bone.startswith("thumb-")))
         self.flexion = skeleton.dof("thumb-metacarpal", "flexion")
         # which samples each DOF carries: every DOF at or above the sample's bone in the thumb's chain
         self.moves = np.array([[b in skeleton.chain_below(int(bone)) for b in self.owner] for bone in self.bones])
@@ -118,14 +122,16 @@ class ThumbContact:
             + transforms[parents][:, :3, 3]
         return axes * self.signs[:, None], centres
 
-    def _rows(self, transforms: np.ndarray, angles: np.ndarray, measured=None) -> tuple[np.ndarray, np.ndarray]:
-        """Shortfalls (R,) of the thumb samples nearer a finger than ``distance`` and their Jacobian (R, D)."""
+    def _rows(self, transforms: np.ndarray, angles: np.ndarray, measured=None,
+              margin: float = TOLERANCE) -> tuple[np.ndarray, np.ndarray]:
+        """Shortfalls (R,) of the thumb samples nearer a finger than ``distance`` less ``margin`` and their
+        Jacobian (R, D): how fast each one's clearance grows per radian of each DOF."""
         points, between, square = self._measure(transforms) if measured is None else measured
         nearest = np.argmin(square - self.distance, axis=1)
         rows = np.arange(len(points))
         gap, want = square[rows, nearest], self.distance[rows, nearest]
         self._clearance = gap - want
-        close = np.flatnonzero(want - gap > TOLERANCE)
+        close = np.flatnonzero(want - gap > margin)
         if len(close) == 0:
             return np.zeros(0), np.zeros((0, len(self.dofs)))
         normal = between[close, nearest[close]] / np.maximum(gap[close], 1e-9)[:, None]
@@ -152,13 +158,17 @@ class ThumbContact:
             return transforms
         measured = None
         if self._held is not None:              # sticking: held unless every sample moved off the fingers
-            held, before = self._held
+            held, before, pressing = self._held
+            turn = angles[dofs] - held[np.searchsorted(self.held_dofs, dofs)]
             measured = self._measure(transforms)
-            if np.any(self.gaps(transforms, measured) < before - 1e-5):
-                angles[dofs] = held
-                pseudo.velocity[dofs] = 0.0
+            # a turn that presses a touching sample into the fingers at the held angles is stopped there too
+            # when, over one frame, it carried the thumb right through them (a squeeze, :mod:`.motion`)
+            if np.any(self.gaps(transforms, measured) < before - 1e-5) or \
+                    np.any(pressing @ turn < -1e-5):
+                angles[self.held_dofs] = held
+                pseudo.velocity[self.held_dofs] = 0.0
                 transforms, measured = self.skeleton.bone_transforms(angles), None
-        moved = True
+        moved, was_held = True, self._held is not None
         for _ in range(SWEEPS):
             shorts, jac = self._rows(transforms, angles, measured)
             measured, moved = None, False
@@ -169,5 +179,7 @@ class ThumbContact:
             transforms = self.skeleton.bone_transforms(angles)
             moved = True
         gaps = self.gaps(transforms) if moved else self._clearance
-        self._held = (angles[dofs].copy(), gaps) if -STICK < gaps.min() < STICK else None
+        self._held = None
+        if -STICK < gaps.min() < (RELEASE if was_held else STICK):
+            self._held = (angles[self.held_dofs].copy(), gaps, self._rows(transforms, angles, None, -RELEASE)[1])
         return transforms

@@ -50,7 +50,9 @@ def hand_object(blend: str | None, rig_name: str | None = None, progress=None):
 
 
 def apply_pose(obj, name: str) -> dict[str, float]:
-    """Set the artist's layer to the preset pose ``name`` (every other muscle relaxed)."""
+    """Set the artist's layer to the preset pose ``name`` (every other muscle relaxed); a staged pose's first
+    stage only: a static layer is simulated from rest, where a squeeze from the start swings the thumb across
+    the palm before it rests on the fingers (Animate Hand with the pose keys both stages, hand/motion.py)."""
     rig = get_rig(obj, KIND)
     values = motion.pose_contractions(name, rig.muscle_names)
     for muscle in rig.muscle_names:

@@ -50,9 +50,10 @@ def view_azimuth(view: str, side: str) -> float:
     return -azimuth if side == "left" else azimuth
 
 
-def pose_cells(rig, names=None) -> list[tuple[str, dict, bool]]:
-    """(label, contractions, hold joints) for the named poses (default: every preset pose), simulated."""
-    return [(n.replace("_", " "), motion.pose_contractions(n, rig.muscle_names), False)
+def pose_cells(rig, names=None) -> list[tuple[str, list, bool]]:
+    """(label, contractions stage by stage, hold joints) for the named poses (default: every preset pose),
+    simulated (a staged pose's squeeze after its first stage has settled, :func:`.motion.pose_stages`)."""
+    return [(n.replace("_", " "), motion.pose_stages(n, rig.muscle_names), False)
             for n in (names or motion.pose_names())]
 
 
@@ -100,14 +101,15 @@ def frame_hand(scene, obj, skins, view: str, side: str, label=None, margin: floa
         label.data.size = LABEL_SIZE * height
 
 
-def cell_pose(rig, values: dict, hold: bool, settle_time: float = 2.5):
-    """The hand of one cell: the pose's contractions simulated from rest (6.2.1), or with ``hold`` the joints
-    kept straight while the muscles bulge."""
+def cell_pose(rig, values, hold: bool, settle_time: float = 2.5):
+    """The hand of one cell: the pose's contractions (a dict, or a list of stages) simulated from rest (6.2.1),
+    or with ``hold`` the joints kept straight while the muscles bulge."""
+    stages = values if isinstance(values, list) else [values]
     if hold:
         rig.reset()
-        rig.set_controls(values)
+        rig.set_controls(stages[-1])
         return rig.pose_joints(np.zeros(rig.skeleton.dof_count), settle_time)
-    return rig.settled({BASE_LAYER: values}, settle_time)
+    return rig.settled({BASE_LAYER: stages[0]}, settle_time, squeeze=stages[-1] if len(stages) > 1 else None)
 
 
 @contextlib.contextmanager
@@ -174,7 +176,7 @@ def bulge_pair(context, obj, name: str, view: str, size, folder, label=None, set
     the two renders, bulging first, as (H, W, 4) arrays (the PNGs are in ``folder``)."""
     rig = get_rig(obj, "hand")
     scene = context.scene
-    rig.settled({BASE_LAYER: motion.pose_contractions(name, rig.muscle_names)}, settle_time)
+    cell_pose(rig, motion.pose_stages(name, rig.muscle_names), False, settle_time)
     lift, on, off = rig.bulge_lift(rig.joint_angles, settle_time)
     render.setup_workbench(scene, size, SHAPE_MATCAP)
     frame_hand(scene, obj, [on.positions["skin"], off.positions["skin"]], view, rig.side, label)

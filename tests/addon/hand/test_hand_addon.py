@@ -116,9 +116,9 @@ def test_bake_and_export_glb_and_fbx(bpy_clean, tmp_path):
     services = addon_module("operators.hand.services")
     bpy.context.scene.render.fps = 30
     first, last = services.animate(bpy.context, obj, "wave_to_fist")
-    assert (first, last) == (1, 67)
+    assert (first, last) == (1, 103)          # 3.4 s: the fist is held, squeezed and let go (hand/motion.py)
     report = services.bake(bpy.context, obj)
-    assert "67 frames" in report
+    assert "103 frames" in report
     keys = [k.name for k in obj.data.shape_keys.key_blocks if k.name.startswith("FH.")]
     assert 20 <= len(keys) <= 40 and sum(k.startswith("FH.bulge.") for k in keys) == 9
     glb = services.export(bpy.context, obj, str(tmp_path / "hand.glb"))

@@ -174,6 +174,18 @@ def test_hermite_passes_through_its_keys_and_stays_in_range():
     assert np.all(np.abs(np.diff(dense, axis=0)) < 0.05)                        # smooth
 
 
+def test_a_staged_pose_in_a_motion_squeezes_after_its_key_and_lets_go_before_the_next(rig):
+    names = rig.muscle_names
+    times, keyed = motion.motion_keys("wave_to_fist", names)
+    fist, squeezed = motion.pose_stages("fist", names)
+    k = keyed.index(fist)
+    assert keyed[k + 1] == fist and keyed[k + 2] == squeezed and keyed[k + 3] == fist
+    assert times[k + 1] - times[k] == pytest.approx(motion.SQUEEZE_AFTER)
+    assert times[k + 4] - times[k + 3] == pytest.approx(motion.SQUEEZE_RISE)
+    times, keyed = motion.motion_keys("showcase", names)                 # no room: the fist's first stage only
+    assert squeezed not in keyed and fist in keyed
+
+
 def test_every_preset_pose_and_motion_reads(rig):
     assert {"fist", "point", "thumbs_up", "pinch", "spread", "relaxed", "computer_graphics_scientist"} <= set(
         motion.pose_names())
@@ -197,3 +209,26 @@ def test_contractions_outside_0_1_in_a_preset_are_refused(rig, tmp_path):
         presets.set_user_folder(before)
     with pytest.raises(UserError, match="unknown hand muscle"):
         motion.checked_contractions({"biceps": 0.5}, rig.muscle_names, "test")
+
+
+@pytest.mark.parametrize("squeeze, message", [({"opponens_pollicis": 1.5}, r"squeeze: contraction opponens_pollicis = 1.5 is outside \[0, 1\]"),
+                                              ({"biceps": 0.5}, "squeeze: unknown hand muscle 'biceps'")])
+def test_a_pose_squeeze_is_checked_like_its_contractions(rig, tmp_path, squeeze, message):
+    """A staged pose's second stage (hand/motion.py) gets the contractions' messages; a file without any
+    squeeze (the format before it) still reads, each pose one stage."""
+    from faces_hands_addon.core import presets
+    doc = json.loads((presets.SHIPPED_FOLDER / "hand" / "poses.json").read_text())
+    (tmp_path / "hand").mkdir()
+    before = presets.user_folder()
+    presets.set_user_folder(tmp_path)
+    try:
+        for pose in doc["poses"].values():
+            pose.pop("squeeze", None)
+        (tmp_path / "hand" / "poses.json").write_text(json.dumps(doc))
+        assert all(len(motion.pose_stages(n, rig.muscle_names)) == 1 for n in motion.pose_names())
+        doc["poses"]["fist"]["squeeze"] = squeeze
+        (tmp_path / "hand" / "poses.json").write_text(json.dumps(doc))
+        with pytest.raises(UserError, match=message):
+            motion.pose_stages("fist", rig.muscle_names)
+    finally:
+        presets.set_user_folder(before)

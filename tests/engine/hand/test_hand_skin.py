@@ -13,6 +13,13 @@ from faces_hands_addon.hand.rig import build_hand_rig
 from faces_hands_addon.hand.skin_shape import fold_vertices
 
 
+def settle_pose(rig, name: str, max_time: float):
+    """The preset pose ``name`` settled from rest as the contact sheet does (a staged pose's squeeze after its
+    first stage has settled, motion.pose_stages)."""
+    stages = motion.pose_stages(name, rig.muscle_names)
+    return rig.settled({"ctrl": stages[0]}, max_time, squeeze=stages[-1] if len(stages) > 1 else None)
+
+
 @pytest.fixture(scope="module")
 def rig():
     return build_hand_rig()
@@ -89,7 +96,7 @@ def test_the_skin_stays_outside_the_bones(rig):
 
 def test_spread_parts_every_pair_of_neighbouring_fingers(rig):
     rig.reset()
-    pose = rig.settled({"ctrl": motion.pose_contractions("spread", rig.muscle_names)}, 2.5)
+    pose = settle_pose(rig, "spread", 2.5)
     rig.reset()
     skin = pose.positions["skin"].astype(float)
     owner = rig.template.skin.weights.argmax(axis=1)
@@ -124,7 +131,7 @@ def test_the_thumbs_up_thumb_stands_off_the_fist(rig):
     from faces_hands_addon.hand.reference import RADIAL
     sk = rig.skeleton
     rig.reset()
-    rig.settled({"ctrl": motion.pose_contractions("thumbs_up", rig.muscle_names)}, 3.0)
+    settle_pose(rig, "thumbs_up", 3.0)
     transforms = sk.bone_transforms(rig.pseudo.angles)
     rig.reset()
     proximal, distal = sk.index["thumb-phalanx-proximal"], sk.index["thumb-phalanx-distal"]
@@ -142,7 +149,7 @@ def test_grip_poses_swell_their_geometric_muscles(rig, pose, least_mm):
     scripts/hand_pose_presets.py): the geometric muscles lift the skin by millimetres in the pose itself, not
     only on the bulge sheet. Before, minimal-effort contractions left them at 0.2-0.5 mm."""
     rig.reset()
-    rig.settled({"ctrl": motion.pose_contractions(pose, rig.muscle_names)}, 3.0)
+    settle_pose(rig, pose, 3.0)
     contraction = rig.contraction_vector()
     transforms = rig.skeleton.bone_transforms(rig.pseudo.angles)
     rig.reset()
@@ -154,12 +161,13 @@ def test_grip_poses_swell_their_geometric_muscles(rig, pose, least_mm):
 
 
 EMINENCES = {"hypothenar": ("opponens_digiti_minimi", "flexor_digiti_minimi_brevis", "abductor_digiti_minimi"),
-             "first web": ("first_dorsal_interosseus",)}
+             "first web": ("first_dorsal_interosseus",), "thenar": ("adductor_pollicis", "opponens_pollicis")}
 
 
 @pytest.mark.parametrize("pose, region, least_mm", [
     ("fist", "hypothenar", 5.0), ("point", "hypothenar", 5.0), ("thumbs_up", "hypothenar", 5.0),
     ("pinch", "first web", 4.0), ("spread", "hypothenar", 2.5), ("spread", "first web", 2.0),
+    ("fist", "thenar", 3.0),    # 0.6 mm before the fist's squeeze (presets/hand/poses.json, hand/motion.py)
 ])
 def test_grip_poses_lift_the_skin_over_their_eminences(rig, pose, region, least_mm):
     """The contact sheet's grip poses swell the simulated skin itself: each pose simulated from rest, then the
@@ -168,7 +176,7 @@ def test_grip_poses_lift_the_skin_over_their_eminences(rig, pose, region, least_
     With the poses before the co-contractions of scripts/hand_pose_presets.py (GRIP): hypothenar 2.7 mm and 5
     nodes over 1 mm in fist, point and thumbs up, the first web 0.5 mm in the pinch, spread 1.7 and 0.5 mm."""
     rig.reset()
-    rig.settled({"ctrl": motion.pose_contractions(pose, rig.muscle_names)}, 3.0)
+    settle_pose(rig, pose, 3.0)
     lift, _, _ = rig.bulge_lift(rig.joint_angles)
     rig.reset()
     geo = rig.geometric
@@ -194,7 +202,7 @@ def test_the_thumb_rests_on_the_curled_fingers_instead_of_sinking_into_them(rig,
     skin = rig.template.skin
     radii = dict(zip(rig.skeleton.names, bone_radii(rig.skeleton, skin.vertices, skin.weights)))
     rig.reset()
-    rig.settled({"ctrl": motion.pose_contractions(pose, rig.muscle_names)}, 2.5)
+    settle_pose(rig, pose, 2.5)
     transforms = rig.skeleton.bone_transforms(rig.pseudo.angles)
     rig.reset()
     worst = np.inf
@@ -203,3 +211,54 @@ def test_the_thumb_rests_on_the_curled_fingers_instead_of_sinking_into_them(rig,
             gap = cdist(_axis(rig, transforms, thumb), _axis(rig, transforms, finger)).min()
             worst = min(worst, gap - radii[thumb] - radii[finger])
     assert worst * 1000 >= -1.0
+
+
+def test_the_fist_squeezes_with_its_thumb_curled_on_the_fingers(rig):
+    """The fist's squeeze (its second stage, hand/motion.py: opponens and adductor pollicis contracted once the
+    fist has settled) swells the thenar eminence by millimetres while the thumb stays where the closed fist put
+    it, curled on the fingers (the thumb contact holds a thumb pressed onto them, hand/thumb_contact.py). Before:
+    the fist held 0.1 of opponens (0.6 mm of thenar lift), and the thenar contracted from rest swung the thumb
+    across the palm to its CMC limits (the tip 87 mm away), overshooting the fingers within one frame."""
+    stages = motion.pose_stages("fist", rig.muscle_names)
+    assert len(stages) == 2 and stages[1]["opponens_pollicis"] > stages[0]["opponens_pollicis"]
+    rig.reset()
+    rig.settled({"ctrl": stages[0]}, 3.0)
+    closed = rig.joint_angles
+    rig.settled({"ctrl": stages[0]}, 3.0, squeeze=stages[1])
+    squeezed = rig.joint_angles
+    lift, _, _ = rig.bulge_lift(squeezed)
+    rig.reset()
+    thumb = [k for (bone, _), k in rig.skeleton.dof_index.items() if bone.startswith("thumb-")]
+    assert np.degrees(np.abs(squeezed - closed)[thumb]).max() < 2.0      # curled as the closed fist left it
+    geo = rig.geometric
+    nodes = np.isin(geo.footprint_owner(), [geo.names.index(name) for name in EMINENCES["thenar"]])
+    assert lift[nodes].max() * 1000 >= 3.0 and (lift[nodes] > 0.001).sum() >= 30
+
+
+def test_a_keyed_fist_closes_then_squeezes_with_its_thumb_held(rig):
+    """The fist keyed as a motion (hand/motion.py: the pose held 1 s, then its squeeze 0.3 s later, clamped
+    Hermite tangents so the held contractions do not sag) plays close-then-squeeze: at its end the thenar is
+    lifted and the thumb lies where the closed fist put it. With the squeeze keyed 0.3 s after the pose (or with
+    Catmull-Rom tangents) the thumb swung across the palm to its CMC limits, the tip 89 mm away."""
+    names = rig.muscle_names
+    times, keyed = motion.motion_keys("fist", names)
+    stages = motion.pose_stages("fist", names)
+    assert keyed[1] == keyed[2] == stages[0] and keyed[3] == stages[1] and times[3] - times[1] >= 1.0
+    at, table = motion.motion_table("fist", names, 30.0)
+    held = (at >= times[1]) & (at <= times[2])
+    opponens = names.index("opponens_pollicis")
+    assert np.all(table[held, opponens] >= stages[0]["opponens_pollicis"] - 1e-9)    # no sag before the squeeze
+    rig.reset()
+    rig.settled({"ctrl": stages[0]}, 3.0)
+    closed = rig.joint_angles
+    rig.reset()
+    for row in table:
+        rig.step({"ctrl": dict(zip(names, row))}, 1 / 30)
+    lift, _, _ = rig.bulge_lift(rig.joint_angles)
+    angles = rig.joint_angles
+    rig.reset()
+    thumb = [k for (bone, _), k in rig.skeleton.dof_index.items() if bone.startswith("thumb-")]
+    assert np.degrees(np.abs(angles - closed)[thumb]).max() < 4.0
+    geo = rig.geometric
+    nodes = np.isin(geo.footprint_owner(), [geo.names.index(name) for name in EMINENCES["thenar"]])
+    assert lift[nodes].max() * 1000 >= 3.0

@@ -24,6 +24,13 @@ FINGERS = ("index", "middle", "ring", "pinky")
 POSES = ["rest"] + motion.pose_names()
 
 
+def settle_pose(rig, name: str, max_time: float):
+    """The preset pose ``name`` settled from rest as the contact sheet does (a staged pose's squeeze after its
+    first stage has settled, motion.pose_stages)."""
+    stages = motion.pose_stages(name, rig.muscle_names)
+    return rig.settled({"ctrl": stages[0]}, max_time, squeeze=stages[-1] if len(stages) > 1 else None)
+
+
 @pytest.fixture(scope="module")
 def rig():
     return build_hand_rig()
@@ -36,7 +43,7 @@ def posed(rig):
     for name in POSES:
         rig.reset()
         if name != "rest":
-            rig.settled({"ctrl": motion.pose_contractions(name, rig.muscle_names)}, 2.5)
+            settle_pose(rig, name, 2.5)
         out[name] = (rig.positions.astype(float), rig.joint_angles)
     rig.reset()
     return out
