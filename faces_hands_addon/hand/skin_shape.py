@@ -42,6 +42,12 @@ THUMB_SECTIONS = {
     "phalanx-distal": ((10.0, 7.0, 9.5), (9.0, 6.0, 8.5)),
 }
 FINGER_SCALE = {"index": 1.0, "middle": 1.03, "ring": 0.96, "pinky": 0.9}
+#: bone-name suffix -> mm of fat pad added to the palmar half-depth at the bone's head and at its tail (the
+#: palm side of a phalanx carries the pulp, the back is thin), so a curled finger's inside is filled, not
+#: hollow. The proximal phalanges keep theirs in the web (a pad there folds the web into the neighbour's
+#: crease in the curled poses), except the little finger's, whose curl showed light through it
+PADS = {"phalanx-proximal": (0.0, 0.0), "phalanx-intermediate": (3.0, 3.0), "phalanx-distal": (2.0, 2.0)}
+PINKY_PROXIMAL_PAD = (3.0, 3.0)
 TIP_PAD = 0.002       # m of pulp past the tip of a distal bone
 WEB = (0.12, 0.45)     # fade-in of a proximal phalanx's target over this part of its length
 THUMB_BASE = (0.05, 0.35)   # the same for the thumb metacarpal (the carpus keeps its shape)
@@ -59,7 +65,9 @@ def _sections(name: str):
     if finger == "thumb":
         return THUMB_SECTIONS.get(suffix), 1.0
     if finger in FINGER_SCALE and suffix in SECTIONS:
-        return SECTIONS[suffix], FINGER_SCALE[finger]
+        pad = PINKY_PROXIMAL_PAD if (finger, suffix) == ("pinky", "phalanx-proximal") else PADS[suffix]
+        (a0, d0, p0), (a1, d1, p1) = SECTIONS[suffix]
+        return ((a0, d0, p0 + pad[0]), (a1, d1, p1 + pad[1])), FINGER_SCALE[finger]
     return None, 1.0
 
 
