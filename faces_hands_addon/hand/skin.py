@@ -17,7 +17,9 @@ one closed-up surface the spring network can use.
 6. *Clearance*: skin that lies closer to a bone than ``CLEARANCE`` is pushed out along its normal, so the
    bones stay inside the hand. On a thin web the normals disagree from node to node, so the push folds it
    (notches that turned into pockets, light through the finger bases, in the spread pose): the folds it left
-   are relaxed once more afterwards (the web keeps its clearance; tests/engine/hand/test_hand_webs.py).
+   are relaxed once more afterwards (the web keeps its clearance; tests/engine/hand/test_hand_webs.py), and
+   the facing sides of the middle and ring fingers, which that relax shrank so light showed through their
+   web seen from the palm, are brought back out to their sections (:func:`.skin_shape.restore_web_sides`).
 
 The skinning weights (used to carry every skin node's attachment point with the bones) come from the asset
 (WebXR joint -> the bone of the same name; tips -> their distal bone), blended for new vertices.
@@ -34,7 +36,7 @@ from ..core import geometry, refine
 from ..physics import RBFWarp
 from .skeleton import TIP_NAMES, Skeleton
 from .skin_end import round_forearm_end
-from .skin_shape import relax_folds, shape_skin, smooth_field, web_membrane
+from .skin_shape import relax_folds, restore_web_sides, shape_skin, smooth_field, web_membrane
 
 __all__ = ["SkinMesh", "fit_reference_skin", "TARGET_NODES", "CLEARANCE"]
 
@@ -168,6 +170,7 @@ def fit_reference_skin(skeleton: Skeleton, target_nodes: int = TARGET_NODES) -> 
     on_fingers = np.isin(weights.argmax(axis=1), [b for b, n in enumerate(skeleton.names) if "phalanx" in n])
     vertices = _push_out_of_bones(relax_folds(vertices, faces, on_fingers), faces, weights, skeleton)
     vertices = relax_folds(vertices, faces, on_fingers)          # the folds the push made on the webs
+    vertices = restore_web_sides(vertices, weights, skeleton)      # what that relax took off the fingers
     boundary = np.zeros(len(vertices), bool)
     for loop in refine.boundary_loops(faces):
         boundary[loop] = True

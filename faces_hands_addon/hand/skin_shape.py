@@ -27,8 +27,8 @@ import scipy.sparse.linalg  # noqa: F401  (sparse.linalg)
 from ..core import geometry
 from .skeleton import Skeleton
 
-__all__ = ["SECTIONS", "FINGER_SCALE", "TIP_PAD", "WEB", "shape_skin", "section_radius", "relax_folds",
-           "smooth_field", "web_membrane", "fold_vertices"]
+__all__ = ["SECTIONS", "FINGER_SCALE", "TIP_PAD", "WEB", "WEB_SIDES", "shape_skin", "section_radius", "relax_folds",
+           "smooth_field", "web_membrane", "fold_vertices", "restore_web_sides"]
 
 #: bone-name suffix -> (a, dorsal, palmar) at the bone's head and at its tail, mm
 SECTIONS = {
@@ -42,10 +42,20 @@ THUMB_SECTIONS = {
     "phalanx-distal": ((10.0, 7.0, 9.5), (9.0, 6.0, 8.5)),
 }
 FINGER_SCALE = {"index": 1.0, "middle": 1.03, "ring": 0.96, "pinky": 0.9}
+#: bone-name suffix -> mm of fat pad added to the palmar half-depth at the bone's head and at its tail (the
+#: palm side of a phalanx carries the pulp, the back is thin), so a curled finger's inside is filled, not
+#: hollow. The proximal phalanges keep theirs in the web (a pad there folds the web into the neighbour's
+#: crease in the curled poses), except the little finger's, whose curl showed light through it
+PADS = {"phalanx-proximal": (0.0, 0.0), "phalanx-intermediate": (3.0, 3.0), "phalanx-distal": (2.0, 2.0)}
+PINKY_PROXIMAL_PAD = (3.0, 3.0)
 TIP_PAD = 0.002       # m of pulp past the tip of a distal bone
 WEB = (0.12, 0.45)     # fade-in of a proximal phalanx's target over this part of its length
 THUMB_BASE = (0.05, 0.35)   # the same for the thumb metacarpal (the carpus keeps its shape)
 SMOOTHING = 4          # umbrella iterations on the blend strength
+#: finger -> (its neighbour, share of its target section restored) for :func:`restore_web_sides`
+WEB_SIDES = {"middle": ("ring", 1.02), "ring": ("middle", 0.95)}
+WEB_SIDE_SPAN = (0.3, 0.5)     # restored from 0.3 of the proximal phalanx, fully from 0.5
+WEB_SIDE_FACING = (0.2, 0.6)   # ... on the side facing the neighbour: cosine to it from 0.2, fully from 0.6
 
 
 def _sections(name: str):
@@ -55,7 +65,9 @@ def _sections(name: str):
     if finger == "thumb":
         return THUMB_SECTIONS.get(suffix), 1.0
     if finger in FINGER_SCALE and suffix in SECTIONS:
-        return SECTIONS[suffix], FINGER_SCALE[finger]
+        pad = PINKY_PROXIMAL_PAD if (finger, suffix) == ("pinky", "phalanx-proximal") else PADS[suffix]
+        (a0, d0, p0), (a1, d1, p1) = SECTIONS[suffix]
+        return ((a0, d0, p0 + pad[0]), (a1, d1, p1 + pad[1])), FINGER_SCALE[finger]
     return None, 1.0
 
 
@@ -187,4 +199,36 @@ def web_membrane(vertices: np.ndarray, faces: np.ndarray, weights: np.ndarray, s
     rhs = -(laplacian[idx][:, fixed] @ vertices[fixed])
     out = vertices.copy()
     out[idx] = sparse.linalg.spsolve(system, rhs).reshape(len(idx), 3)
+    return out
+
+
+def restore_web_sides(vertices: np.ndarray, weights: np.ndarray, skeleton: Skeleton) -> np.ndarray:
+    """The facing sides of the middle and ring fingers' proximal phalanges brought back out to their target
+    sections (:data:`WEB_SIDES`; 6.2.1, Fig. 6.13: the fingers touch above the web). Relaxing the folds of the
+    asset's web shrinks the finger round it to 0.7-0.8 of its section from 0.4 to 0.65 of the bone, and the
+    web between these two, whose commissure reaches only 0.45-0.57, then showed light through it seen from the
+    palm (16-21 mm^2). Only outward: a node already outside its section stays; the share below 1 on the ring
+    finger keeps its side off the web's triangles when the two fingers curl differently."""
+    owner = weights.argmax(axis=1)
+    out = vertices.copy()
+    for finger, (other, share) in WEB_SIDES.items():
+        b, o = (skeleton.index[f"{f}-finger-phalanx-proximal"] for f in (finger, other))
+        sections, scale = _sections(skeleton.names[b])
+        head, tail = skeleton.position[b], skeleton.tail[b]
+        length = float(np.linalg.norm(tail - head))
+        z = (tail - head) / length
+        s = (vertices - head) @ z / length
+        mine = np.flatnonzero((owner == b) & (s > WEB_SIDE_SPAN[0]))
+        target, _ = _target(vertices[mine], skeleton, b, sections, scale)
+        centre = head + np.outer((vertices[mine] - head) @ z, z)
+        offset = vertices[mine] - centre
+        r = np.linalg.norm(offset, axis=1)
+        u = offset / np.maximum(r, 1e-12)[:, None]
+        toward = skeleton.position[o] - head
+        toward -= (toward @ z) * z
+        toward /= np.linalg.norm(toward)
+        w = np.clip((s[mine] - WEB_SIDE_SPAN[0]) / (WEB_SIDE_SPAN[1] - WEB_SIDE_SPAN[0]), 0.0, 1.0)
+        w *= np.clip((u @ toward - WEB_SIDE_FACING[0]) / (WEB_SIDE_FACING[1] - WEB_SIDE_FACING[0]), 0.0, 1.0)
+        grow = np.maximum(share * np.linalg.norm(target - centre, axis=1) - r, 0.0) * w
+        out[mine] += u * grow[:, None]
     return out

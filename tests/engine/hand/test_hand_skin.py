@@ -50,13 +50,15 @@ def section_roundness(rig, bone: str, s: float) -> float:
 @pytest.mark.parametrize("bone, s, least", [
     ("thumb-phalanx-proximal", 0.5, 0.55), ("thumb-phalanx-proximal", 0.7, 0.6),
     ("thumb-phalanx-distal", 0.5, 0.6), ("thumb-phalanx-distal", 0.7, 0.6),
-    ("index-finger-phalanx-intermediate", 0.5, 0.65), ("middle-finger-phalanx-intermediate", 0.5, 0.65),
-    ("ring-finger-phalanx-intermediate", 0.5, 0.65), ("pinky-finger-phalanx-intermediate", 0.5, 0.65),
+    ("index-finger-phalanx-intermediate", 0.5, 0.5), ("middle-finger-phalanx-intermediate", 0.5, 0.5),
+    ("ring-finger-phalanx-intermediate", 0.5, 0.5), ("pinky-finger-phalanx-intermediate", 0.5, 0.5),
     ("ring-finger-phalanx-proximal", 0.7, 0.5), ("ring-finger-phalanx-proximal", 0.5, 0.55), ("middle-finger-phalanx-proximal", 0.7, 0.6),
 ])
 def test_finger_and_thumb_sections_are_round_round_their_bones(rig, bone, s, least):
     # a round section has ratio 1; the target ellipse (thinner on the back than on the pad) about 0.73;
-    # the warped asset had 0.40-0.48 on the thumb (a cone off its bones), 0.27 at the ring finger's base
+    # the warped asset had 0.40-0.48 on the thumb (a cone off its bones), 0.27 at the ring finger's base.
+    # The intermediate phalanges carry a 3 mm palmar pad (skin_shape.PADS): their target is 6.2 / 11.4 = 0.54
+    # at mid-bone by design (0.72 before, when the limit was 0.65), and the skin follows it (0.54)
     assert section_roundness(rig, bone, s) >= least
 
 
