@@ -260,7 +260,10 @@ def test_a_keyed_fist_closes_then_squeezes_with_its_thumb_held(rig):
     angles = rig.joint_angles
     rig.reset()
     thumb = [k for (bone, _), k in rig.skeleton.dof_index.items() if bone.startswith("thumb-")]
-    assert np.degrees(np.abs(angles - closed)[thumb]).max() < 4.0
+    # the keyed fist ends within a few degrees of the settled one (its thumb IP 4.3 degrees off since the
+    # fingers' palmar pads, hand/skin_shape.py PADS, moved the surface the thumb rests on); a thumb thrown
+    # across the palm is tens of degrees off
+    assert np.degrees(np.abs(angles - closed)[thumb]).max() < 6.0
     geo = rig.geometric
     nodes = np.isin(geo.footprint_owner(), [geo.names.index(name) for name in EMINENCES["thenar"]])
     assert lift[nodes].max() * 1000 >= 3.0
