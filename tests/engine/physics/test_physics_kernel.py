@@ -236,3 +236,29 @@ def test_compiled_lid_rotation_matches_numpy(monkeypatch):
             lifted += int((np.linalg.norm(reference - lid.centre, axis=1)
                            > np.linalg.norm(lid_rest - lid.centre, axis=1) + 1e-6).sum())
     assert lifted > 0                                                      # the cornea lift acted
+
+
+def test_compiled_muscle_pull_matches_numpy(monkeypatch):
+    """The muscles' pull on the attachments (face/attachment_kernel.py, used once the kernel is loaded)
+    against the numpy reference (attachment.AttachmentMap.muscle_displacement + jaw_frame_correction):
+    random control-point displacements, the jaw at rest and turned, opened and pushed forward."""
+    from faces_hands_addon.face.kinematics import jaw_matrix
+    from faces_hands_addon.face.rig import build_default_rig
+    rig = build_default_rig("default")
+    attachment, muscles = rig.template.attachment, rig.template.muscles
+    kernel.substep_kernel()
+    assert kernel.loaded()
+    rng = np.random.default_rng(7)
+    bones = rig.template.bones
+    jaws = [jaw_matrix(bones.tmj_pivot, bones.tmj_axis, *values, glide=bones.jaw_glide)
+            for values in rng.uniform(-0.3, 1.0, (4, 4))]
+    for jaw in (np.eye(4), *jaws):
+        displacement = rng.normal(size=muscles.rest.shape) * 0.003
+        start = rng.normal(size=(len(attachment.jaw_weight), 3)) * 0.05
+        compiled, reference = start.copy(), start.copy()
+        attachment.add_muscle_pull(displacement, muscles.rest, muscles.jaw_carry, jaw, compiled)
+        with monkeypatch.context() as patch:
+            patch.setattr(kernel, "loaded", lambda: False)
+            attachment.add_muscle_pull(displacement, muscles.rest, muscles.jaw_carry, jaw, reference)
+        assert np.abs(reference - start).max() > 1e-4                     # the muscles pulled
+        assert np.abs(compiled - reference).max() < 1e-15
