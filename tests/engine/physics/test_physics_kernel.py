@@ -262,3 +262,33 @@ def test_compiled_muscle_pull_matches_numpy(monkeypatch):
             attachment.add_muscle_pull(displacement, muscles.rest, muscles.jaw_carry, jaw, reference)
         assert np.abs(reference - start).max() > 1e-4                     # the muscles pulled
         assert np.abs(compiled - reference).max() < 1e-15
+
+
+def test_compiled_muscle_deformation_matches_numpy(monkeypatch):
+    """The muscles' per-frame deformation (face/muscle_kernel.py, used once the kernel is loaded) against
+    the numpy reference (muscles.MuscleSystem.deform): random contractions (out-of-range ones clipped
+    alike), protrusion forward, back and none, the jaw at rest and posed, parted rest lips; points,
+    displacements and thicknesses."""
+    from faces_hands_addon.face.kinematics import jaw_matrix
+    from faces_hands_addon.face.rig import build_default_rig
+    import copy
+    template = build_default_rig("default").template
+    muscles, bones = copy.deepcopy(template.muscles), template.bones
+    kernel.substep_kernel()
+    assert kernel.loaded()
+    rng = np.random.default_rng(3)
+    muscles.set_rest_closing(rng.normal(size=muscles.rest.shape) * 0.002)   # parted rest lips (a fitted head)
+    moved = 0.0
+    for trial in range(12):
+        contraction = rng.uniform(-0.2, 1.2, len(muscles.names)) * (rng.uniform(size=len(muscles.names)) < 0.6)
+        protrusion = (0.0, rng.uniform(0.1, 1.3), rng.uniform(-1.3, -0.1))[trial % 3]
+        jaw = jaw_matrix(bones.tmj_pivot, bones.tmj_axis, *rng.uniform(-0.3, 1.0, 4),
+                         glide=bones.jaw_glide) if trial % 2 else np.eye(4)
+        compiled = muscles.deform(contraction, protrusion, jaw)
+        with monkeypatch.context() as patch:
+            patch.setattr(kernel, "loaded", lambda: False)
+            reference = muscles.deform(contraction, protrusion, jaw)
+        for field in ("points", "displacement", "thickness"):
+            assert np.abs(getattr(compiled, field) - getattr(reference, field)).max() < 1e-15, field
+        moved = max(moved, float(np.abs(reference.displacement).max()))
+    assert moved > 1e-3                                                    # the muscles contracted
