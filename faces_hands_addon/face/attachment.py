@@ -21,6 +21,8 @@ from scipy import sparse
 from scipy.sparse.csgraph import dijkstra
 
 from ..core import geometry
+from ..physics import kernel
+from . import attachment_kernel
 from .skin import SkinMesh
 
 __all__ = ["AttachmentMap", "BoneSurface", "signed_bone_distance", "attach_to_bones", "attach_to_muscles", "smoothing_operator", "SKULL", "JAW",
@@ -71,6 +73,35 @@ class AttachmentMap:
             return np.zeros((len(self.jaw_weight), 3))
         own = self.muscle_displacement(moved * muscle_carry[:, None])
         return own - self.jaw_weight[:, None] * self.muscle_displacement(moved)
+
+    def add_muscle_pull(self, displacement: np.ndarray, muscle_rest: np.ndarray, muscle_carry: np.ndarray,
+                        jaw: np.ndarray, target: np.ndarray) -> None:
+        """``target`` (N, 3) += :meth:`muscle_displacement` of the muscle points' ``displacement`` +
+        :meth:`jaw_frame_correction` (in place): the pull of the muscles the nodes are attached to (Fig. 3.4).
+        Once the kernel is loaded (the live preview), one compiled pass (:mod:`.attachment_kernel`)."""
+        if kernel.loaded() and (pull := kernel.compiled(attachment_kernel.add_muscle_pull)) is not None:
+            spread, tables = self.jaw_pull_tables(muscle_rest, muscle_carry)
+            pull(spread.indptr, spread.indices, spread.data, np.ascontiguousarray(displacement, np.float64),
+                 *tables, np.ascontiguousarray(jaw[:3, :3], np.float64), np.ascontiguousarray(jaw[:3, 3], np.float64),
+                 self.jaw_weight.astype(np.float64, copy=False), target)
+            return
+        target += self.muscle_displacement(displacement)
+        target += self.jaw_frame_correction(muscle_rest, muscle_carry, jaw)
+
+    def jaw_pull_tables(self, muscle_rest: np.ndarray, muscle_carry: np.ndarray):
+        """The spread matrix S (CSR) and, taken once per muscle layout, S r, S 1, S (c r), S c for the muscle
+        points' rest positions r and jaw carry c: :meth:`jaw_frame_correction` is linear in the jaw pose, so
+        the compiled pull (:mod:`.attachment_kernel`) needs no product with S for it per frame."""
+        if self._spread is None:
+            self._spread = self.spread_muscle_matrix()
+        cached = getattr(self, "_jaw_tables", None)
+        if cached is None or cached[0] is not muscle_rest or cached[1] is not muscle_carry:
+            spread, carry = self._spread, np.asarray(muscle_carry, np.float64)
+            rest = np.asarray(muscle_rest, np.float64)
+            tables = tuple(np.ascontiguousarray(spread @ value, np.float64)
+                           for value in (rest, np.ones(len(rest)), carry[:, None] * rest, carry))
+            cached = self._jaw_tables = (muscle_rest, muscle_carry, tables)
+        return self._spread, cached[2]
 
     def spread_muscle_matrix(self) -> sparse.csr_matrix:
         """``muscle_matrix`` with the smoothing passes folded in (N, P)."""

@@ -34,6 +34,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import sparse
 
+from ..physics import kernel
+from . import muscle_kernel
 from .muscle_layout import ConnectionSpec, PlacedMuscle
 
 __all__ = ["MuscleSystem", "MuscleState"]
@@ -283,6 +285,14 @@ class MuscleSystem:
         ``protrusion`` ([-1, 1]) and the jaw pose (4x4)."""
         contraction = np.clip(np.asarray(contraction, np.float64), 0.0, 1.0)
         protrusion = float(np.clip(protrusion, -1.0, 1.0))
+        if kernel.loaded() and (compiled := kernel.compiled(muscle_kernel.deform_points, *muscle_kernel.HELPERS)):
+            surface, carried, thickness = np.empty_like(self.rest), np.empty_like(self.rest), np.empty(len(self.rest))
+            compiled(contraction, protrusion, np.ascontiguousarray(jaw[:3, :3], np.float64),
+                     np.ascontiguousarray(jaw[:3, 3], np.float64), self.rest, self.normal,
+                     np.ascontiguousarray(self.jaw_carry, np.float64), self.muscle_of_point, *self._kernel_tables(),
+                     np.ascontiguousarray(self.rest_closing, np.float64), self.thickness_rest, surface, carried,
+                     thickness)
+            return MuscleState(surface, surface - carried, thickness)
         carry = self.jaw_carry[:, None]
         carried = self.rest + carry * (_transform(jaw, self.rest) - self.rest)
         on_jaw = self.jaw_carry > 0.5
@@ -297,6 +307,38 @@ class MuscleSystem:
         thickness = self._bulge(points, contraction, own_length)
         surface = points + normal * (thickness - self.thickness_rest)[:, None]
         return MuscleState(surface, surface - carried, thickness)
+
+    def _kernel_tables(self) -> tuple:
+        """:meth:`_prepare_tables`' tables as :func:`.muscle_kernel.deform_points` takes them (linear,
+        pushes, sphincters, connections, bulge), packed once per sphincter layout (:meth:`set_centres`)."""
+        cached = getattr(self, "_packed", None)
+        if cached is not None and cached[0] is self._sphincters:
+            return cached[1]
+        which, column, row, rows, arclength, grid, shortening = self._linear
+        linear = (which, column, row, rows, np.ascontiguousarray(arclength), grid, shortening.astype(np.float64))
+        empty, sizes = np.zeros(0, np.int64), lambda parts: np.r_[0, np.cumsum([len(x) for x in parts])].astype(np.int64)
+        sources, targets = [push[0] for push in self.pushes], [push[1] for push in self.pushes]
+        pushes = (np.concatenate(sources) if sources else empty, sizes(sources),
+                  np.concatenate(targets) if targets else empty, sizes(targets),
+                  np.concatenate([push[2] for push in self.pushes]) if targets else np.zeros(0),
+                  np.array([push[3] for push in self.pushes], np.float64).reshape(-1, 3))
+        if self._sphincters is None:
+            sphincters = (empty, empty, np.zeros((4, 0)), np.zeros(0), np.zeros(0, bool), np.zeros(0), np.zeros(0),
+                          np.zeros((len(self.specs), 3)), self.mouth_axes, False)
+        else:
+            which_s, muscle, squeeze, inner, oris, forward, backward, centres = self._sphincters
+            sphincters = (which_s.astype(np.int64), muscle.astype(np.int64), np.ascontiguousarray(squeeze, np.float64),
+                          inner.astype(np.float64), oris, forward.astype(np.float64), backward.astype(np.float64),
+                          np.ascontiguousarray(centres, np.float64), np.ascontiguousarray(self.mouth_axes), True)
+        members, group_of, count, spread, spreads = self._groups
+        connect = (members.astype(np.int64), group_of.astype(np.int64), int(count), spreads, spread.indptr,
+                   spread.indices, spread.data)
+        column, start, following, _, fibre_length, bulge, along, is_linear = self._fibres
+        fibres = int(column.max()) + 1
+        bulge_tables = (column, start, following, np.ascontiguousarray(fibre_length[:fibres], np.float64),
+                        bulge.astype(np.float64), along.astype(np.float64), is_linear)
+        self._packed = (self._sphincters, (linear, pushes, sphincters, connect, bulge_tables))
+        return self._packed[1]
 
     def _contract_linear(self, contraction: np.ndarray, jaw: np.ndarray, points: np.ndarray,
                          own_length: np.ndarray) -> None:

@@ -239,8 +239,7 @@ class FaceRig:
             target[lid.index] += rotated - lid_rest
         state = t.muscles.deform(self._contraction_vector(), self.controls["orbicularis_oris_protrusion"], jaw)
         self._muscle_state = state
-        target += t.attachment.muscle_displacement(state.displacement)
-        target += t.attachment.jaw_frame_correction(t.muscles.rest, t.muscles.jaw_carry, jaw)
+        t.attachment.add_muscle_pull(state.displacement, t.muscles.rest, t.muscles.jaw_carry, jaw, target)
         if self._pressure is not None:                    # air in the mouth (cheekPuff)
             puff = self._pressure.displacement(self.controls.get("cheek_puff", 0.0),
                                                {s: self.controls.get(f"buccinator_{s}", 0.0) for s in "LR"})

@@ -236,3 +236,59 @@ def test_compiled_lid_rotation_matches_numpy(monkeypatch):
             lifted += int((np.linalg.norm(reference - lid.centre, axis=1)
                            > np.linalg.norm(lid_rest - lid.centre, axis=1) + 1e-6).sum())
     assert lifted > 0                                                      # the cornea lift acted
+
+
+def test_compiled_muscle_pull_matches_numpy(monkeypatch):
+    """The muscles' pull on the attachments (face/attachment_kernel.py, used once the kernel is loaded)
+    against the numpy reference (attachment.AttachmentMap.muscle_displacement + jaw_frame_correction):
+    random control-point displacements, the jaw at rest and turned, opened and pushed forward."""
+    from faces_hands_addon.face.kinematics import jaw_matrix
+    from faces_hands_addon.face.rig import build_default_rig
+    rig = build_default_rig("default")
+    attachment, muscles = rig.template.attachment, rig.template.muscles
+    kernel.substep_kernel()
+    assert kernel.loaded()
+    rng = np.random.default_rng(7)
+    bones = rig.template.bones
+    jaws = [jaw_matrix(bones.tmj_pivot, bones.tmj_axis, *values, glide=bones.jaw_glide)
+            for values in rng.uniform(-0.3, 1.0, (4, 4))]
+    for jaw in (np.eye(4), *jaws):
+        displacement = rng.normal(size=muscles.rest.shape) * 0.003
+        start = rng.normal(size=(len(attachment.jaw_weight), 3)) * 0.05
+        compiled, reference = start.copy(), start.copy()
+        attachment.add_muscle_pull(displacement, muscles.rest, muscles.jaw_carry, jaw, compiled)
+        with monkeypatch.context() as patch:
+            patch.setattr(kernel, "loaded", lambda: False)
+            attachment.add_muscle_pull(displacement, muscles.rest, muscles.jaw_carry, jaw, reference)
+        assert np.abs(reference - start).max() > 1e-4                     # the muscles pulled
+        assert np.abs(compiled - reference).max() < 1e-15
+
+
+def test_compiled_muscle_deformation_matches_numpy(monkeypatch):
+    """The muscles' per-frame deformation (face/muscle_kernel.py, used once the kernel is loaded) against
+    the numpy reference (muscles.MuscleSystem.deform): random contractions (out-of-range ones clipped
+    alike), protrusion forward, back and none, the jaw at rest and posed, parted rest lips; points,
+    displacements and thicknesses."""
+    from faces_hands_addon.face.kinematics import jaw_matrix
+    from faces_hands_addon.face.rig import build_default_rig
+    import copy
+    template = build_default_rig("default").template
+    muscles, bones = copy.deepcopy(template.muscles), template.bones
+    kernel.substep_kernel()
+    assert kernel.loaded()
+    rng = np.random.default_rng(3)
+    muscles.set_rest_closing(rng.normal(size=muscles.rest.shape) * 0.002)   # parted rest lips (a fitted head)
+    moved = 0.0
+    for trial in range(12):
+        contraction = rng.uniform(-0.2, 1.2, len(muscles.names)) * (rng.uniform(size=len(muscles.names)) < 0.6)
+        protrusion = (0.0, rng.uniform(0.1, 1.3), rng.uniform(-1.3, -0.1))[trial % 3]
+        jaw = jaw_matrix(bones.tmj_pivot, bones.tmj_axis, *rng.uniform(-0.3, 1.0, 4),
+                         glide=bones.jaw_glide) if trial % 2 else np.eye(4)
+        compiled = muscles.deform(contraction, protrusion, jaw)
+        with monkeypatch.context() as patch:
+            patch.setattr(kernel, "loaded", lambda: False)
+            reference = muscles.deform(contraction, protrusion, jaw)
+        for field in ("points", "displacement", "thickness"):
+            assert np.abs(getattr(compiled, field) - getattr(reference, field)).max() < 1e-15, field
+        moved = max(moved, float(np.abs(reference.displacement).max()))
+    assert moved > 1e-3                                                    # the muscles contracted
