@@ -47,6 +47,7 @@ SKIN_EDGE_STIFFNESS = 1.0     # N/m; the scale is free (muscles move anchors kin
 COMPRESSION_SOFTNESS = 0.25   # skin yields under compression (a membrane without bending would buckle)
 CORNER_RADIUS, CORNER_GAIN = 0.0035, 40.0    # m around each mouth corner (the modiolus' knot); its attachment gain
 CANTHUS_GAIN = 40.0          # attachment gain on a canthus (the canthal tendons tie it to the orbit), as CORNER_GAIN
+OVER_BONE = 0.3             # fitted heads: the skull guard holds skin whose bone normal faces its own this much
 SLIVER_HEIGHT = 0.0003       # m: a triangle corner this close to its opposite edge follows that edge (SliverTies)
 
 #: documented UI ranges of the material knobs (values outside are clamped)
@@ -242,13 +243,18 @@ def _masses(pair: np.ndarray, edges: np.ndarray, k_stiff: np.ndarray, material: 
 
 
 def _bone_guard(template: HeadTemplate, lid_weight: np.ndarray) -> BoneHalfSpaceGuard:
-    """Skin outside the mouth stays outside skull and jaw; each node's rest height over its bone's tangent
-    plane sets its clearance."""
+    """Skin outside the mouth stays outside skull and jaw (3.1.2, Fig. 3.4); each node's rest height over its
+    bone's tangent plane sets its clearance. On a fitted head only skin lying over its bone is held."""
     skin, anchoring = template.skin, template.attachment
     nodes = skin.vertices
     plane_height = np.einsum("ij,ij->i", nodes - anchoring.bone_point, anchoring.bone_normal)
     guarded = skin.group("surface") & (lid_weight == 0) & (plane_height > 0.0015)
     guarded &= ~skin.group("lip_inner") & ~skin.group("mouth_bag") & ~skin.mouth_region
+    if skin.kinematic is not None and np.any(skin.kinematic):
+        # a fitted head (it has a driven ring): skin whose closest bone faces away from it lies over an
+        # opening of the transferred skull (SOMA's lower brow: the orbit's roof, 5 mm above it, facing down),
+        # not on the bone; that plane held the brow down when it rose (browOuterUp folded)
+        guarded &= np.einsum("ij,ij->i", skin.normals, anchoring.bone_normal) > OVER_BONE
     index = np.flatnonzero(guarded)
     clearance = np.minimum(0.0015, 0.5 * plane_height[index])
     guard = BoneHalfSpaceGuard(index, anchoring.bone_point[index].T, anchoring.bone_normal[index].T,
