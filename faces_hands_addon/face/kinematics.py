@@ -118,6 +118,10 @@ def _elevation(points: np.ndarray, centre: np.ndarray) -> np.ndarray:
 
 
 CANTHUS_RADIUS = 0.0035     # m around each canthus within which the lid skin turns less, not at all at it
+# on a fitted head (an artist's mesh: nodes 1-2 mm from the canthus node, which is often the lowest corner of
+# its triangles) the tie reaches further: within 3.5 mm the lid weight rose from 0.14 on MakeHuman's canthus
+# to 0.56 on a node 1.2 mm away, which turned down past it in eyeLookDown (4.0-4.75 mm all fold nothing there)
+FITTED_CANTHUS_RADIUS = 0.0045
 
 
 class LidRig:
@@ -128,8 +132,9 @@ class LidRig:
     margin rises to it; both follow the gaze pitch (upper 70 %, lower 40 %). Lid skin further from the
     margin rotates less (weight falling to 0 over ``falloff``), so the lid skin stretches smoothly up to
     the brow and down to the cheek. The canthi are tied to the orbit: within ``CANTHUS_RADIUS`` of them
-    the lids turn less and less, and where the fissure narrows towards them both lids follow the gaze
-    alike, so the corner's small triangles do not fold over when the eye closes or looks down.
+    (``FITTED_CANTHUS_RADIUS`` on a fitted head) the lids turn less and less, and where the fissure narrows
+    towards them both lids follow the gaze alike, so the corner's small triangles do not fold over when the
+    eye closes or looks down.
     """
     MEETING = 0.25                  # fraction of the fissure the lower lid travels when closing
     FOLLOW_UPPER, FOLLOW_LOWER = 0.7, 0.4
@@ -169,10 +174,11 @@ class LidRig:
         # the canthi are tied to the orbit (the canthal tendons): lid skin right at them does not turn
         canthi = np.vstack([up[[np.argmin(up[:, 0]), np.argmax(up[:, 0])]], low[[np.argmin(low[:, 0]),
                                                                                   np.argmax(low[:, 0])]]])
-        near = np.min(np.linalg.norm(nodes[:, None] - canthi[None], axis=2), axis=1) / CANTHUS_RADIUS
+        reach = CANTHUS_RADIUS if fade is None else FITTED_CANTHUS_RADIUS
+        near = np.min(np.linalg.norm(nodes[:, None] - canthi[None], axis=2), axis=1) / reach
         near = np.clip(near, 0.0, 1.0)
         self.weight = self.weight * near * near * (3 - 2 * near)
-        # how firmly the canthal tendons hold each node (1 on a canthus, 0 from CANTHUS_RADIUS on): on a
+        # how firmly the canthal tendons hold each node (1 on a canthus, 0 from the radius on): on a
         # fitted head only (``fade`` given), whose artist's mesh may have slivers there (SOMA: a 0.2 mm edge)
         self.canthus_tie = np.zeros(len(nodes))
         aperture = np.maximum(self.theta_u - self.theta_l, 0.0)

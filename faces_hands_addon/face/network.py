@@ -41,12 +41,14 @@ from .attachment import BoneSurface
 from .organs import CORNEA_BULGE, CORNEA_DEG
 from .template import HeadTemplate
 
-__all__ = ["SkinMaterial", "MATERIAL_RANGES", "FaceNetwork", "build_network"]
+__all__ = ["SkinMaterial", "MATERIAL_RANGES", "FaceNetwork", "SliverTies", "build_network"]
 
 SKIN_EDGE_STIFFNESS = 1.0     # N/m; the scale is free (muscles move anchors kinematically)
 COMPRESSION_SOFTNESS = 0.25   # skin yields under compression (a membrane without bending would buckle)
 CORNER_RADIUS, CORNER_GAIN = 0.0035, 40.0    # m around each mouth corner (the modiolus' knot); its attachment gain
 CANTHUS_GAIN = 40.0          # attachment gain on a canthus (the canthal tendons tie it to the orbit), as CORNER_GAIN
+OVER_BONE = 0.3             # fitted heads: the skull guard holds skin whose bone normal faces its own this much
+SLIVER_HEIGHT = 0.0003       # m: a triangle corner this close to its opposite edge follows that edge (SliverTies)
 
 #: documented UI ranges of the material knobs (values outside are clamped)
 MATERIAL_RANGES = {
@@ -82,6 +84,60 @@ class SkinMaterial:
 
 
 @dataclass
+class SliverTies:
+    """Sliver triangles of an artist's mesh keep their shape. A spring network of the skin's edges (3.1.2)
+    has no say in how a triangle with a corner within ``SLIVER_HEIGHT`` of its opposite edge is oriented (two
+    vertices 0.2 mm apart, or a flat cap, at SOMA's inner canthus): a sub-millimetre difference in how its
+    nodes are pulled turns it over. In each such triangle the nearest corner (the *apex*) follows its edge,
+    at its rest offset from the point of the edge next to it, like welded vertices. An apex may be tied in
+    several slivers and be another's edge end: the ties are placed in ``PASSES`` sweeps over batches in which
+    no node occurs twice (as position constraints are relaxed one after another). Only ``free`` apices are
+    tied: not kinematic nodes, nor the mouth's, whose lip contact and teeth guard place them."""
+    batches: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]]
+    PASSES = 2
+
+    @classmethod
+    def build(cls, vertices: np.ndarray, faces: np.ndarray, free: np.ndarray,
+              height: float = SLIVER_HEIGHT) -> "SliverTies":
+        vertices, faces = np.asarray(vertices, np.float64), np.asarray(faces, np.int64)
+        distance, share = np.full((len(faces), 3), np.inf), np.zeros((len(faces), 3))
+        for k in range(3):
+            apex, start, end = faces[:, k], faces[:, (k + 1) % 3], faces[:, (k + 2) % 3]
+            edge = vertices[end] - vertices[start]
+            along = np.einsum("ij,ij->i", vertices[apex] - vertices[start], edge)
+            share[:, k] = np.clip(along / np.maximum(np.einsum("ij,ij->i", edge, edge), 1e-30), 0.0, 1.0)
+            distance[:, k] = np.linalg.norm(vertices[apex] - vertices[start] - share[:, k, None] * edge, axis=1)
+        corner = np.argmin(distance, axis=1)
+        rows = np.arange(len(faces))
+        picked = np.flatnonzero((distance[rows, corner] < height) & free[faces[rows, corner]])
+        picked = picked[np.argsort(distance[picked, corner[picked]], kind="stable")]
+        batches, used = [], []
+        for face in picked:
+            k = corner[face]
+            tie = (faces[face, k], faces[face, (k + 1) % 3], faces[face, (k + 2) % 3], share[face, k])
+            slot = next((i for i, nodes in enumerate(used) if not nodes.intersection(tie[:3])), len(used))
+            if slot == len(used):
+                used.append(set())
+                batches.append([])
+            used[slot].update(int(n) for n in tie[:3])
+            batches[slot].append(tie)
+        out = []
+        for batch in batches:
+            apex, start, end = (np.array([t[j] for t in batch], np.int64) for j in range(3))
+            s = np.array([t[3] for t in batch], np.float64)
+            point = (1.0 - s)[:, None] * vertices[start] + s[:, None] * vertices[end]
+            out.append((apex, start, end, s, (vertices[apex] - point).T.copy()))
+        return cls(out)
+
+    def __call__(self, positions: np.ndarray, velocity: np.ndarray) -> None:
+        """Place every apex on its edge (positions, velocities (3, N), in place)."""
+        for _ in range(self.PASSES if self.batches else 0):
+            for apex, start, end, share, offset in self.batches:
+                positions[:, apex] = (1.0 - share) * positions[:, start] + share * positions[:, end] + offset
+                velocity[:, apex] = (1.0 - share) * velocity[:, start] + share * velocity[:, end]
+
+
+@dataclass
 class FaceNetwork:
     network: SpringNetwork
     integrator: LeapfrogIntegrator
@@ -90,6 +146,7 @@ class FaceNetwork:
     eye_guards: list[SphereGuard]
     anchor_offset: np.ndarray          # (N, 3) node -> bone vector at rest (anchor = target + offset)
     material: SkinMaterial
+    slivers: SliverTies | None = None
 
     def set_backend(self, backend: str) -> None:
         """"auto" (the default: the fused kernel where it pays, physics/kernel.py), "numba" (kernel and
@@ -106,6 +163,8 @@ class FaceNetwork:
         self.teeth_guard(positions, velocity, fraction)
         for guard in self.eye_guards:
             guard(positions, velocity, fraction)
+        if self.slivers is not None:
+            self.slivers(positions, velocity)
 
 
 def _lid_weight(template: HeadTemplate) -> np.ndarray:
@@ -184,13 +243,18 @@ def _masses(pair: np.ndarray, edges: np.ndarray, k_stiff: np.ndarray, material: 
 
 
 def _bone_guard(template: HeadTemplate, lid_weight: np.ndarray) -> BoneHalfSpaceGuard:
-    """Skin outside the mouth stays outside skull and jaw; each node's rest height over its bone's tangent
-    plane sets its clearance."""
+    """Skin outside the mouth stays outside skull and jaw (3.1.2, Fig. 3.4); each node's rest height over its
+    bone's tangent plane sets its clearance. On a fitted head only skin lying over its bone is held."""
     skin, anchoring = template.skin, template.attachment
     nodes = skin.vertices
     plane_height = np.einsum("ij,ij->i", nodes - anchoring.bone_point, anchoring.bone_normal)
     guarded = skin.group("surface") & (lid_weight == 0) & (plane_height > 0.0015)
     guarded &= ~skin.group("lip_inner") & ~skin.group("mouth_bag") & ~skin.mouth_region
+    if skin.kinematic is not None and np.any(skin.kinematic):
+        # a fitted head (it has a driven ring): skin whose closest bone faces away from it lies over an
+        # opening of the transferred skull (SOMA's lower brow: the orbit's roof, 5 mm above it, facing down),
+        # not on the bone; that plane held the brow down when it rose (browOuterUp folded)
+        guarded &= np.einsum("ij,ij->i", skin.normals, anchoring.bone_normal) > OVER_BONE
     index = np.flatnonzero(guarded)
     clearance = np.minimum(0.0015, 0.5 * plane_height[index])
     guard = BoneHalfSpaceGuard(index, anchoring.bone_point[index].T, anchoring.bone_normal[index].T,
@@ -273,5 +337,7 @@ def build_network(template: HeadTemplate, material: SkinMaterial | None = None,
     masses, damping = _masses(pair, edges, k_stiff, material, mass_cap_factor)
     network = SpringNetwork(template.skin.vertices, masses, springs, attachments, kinematic=template.skin.kinematic)
     integrator = LeapfrogIntegrator(network, damping, max_substeps=max_substeps)
+    skin = template.skin
+    slivers = SliverTies.build(skin.vertices, skin.faces, ~network.kinematic & ~skin.mouth_region)
     return FaceNetwork(network, integrator, _bone_guard(template, lid_weight), _teeth_guard(template),
-                       _eye_guards(template), offset, material)
+                       _eye_guards(template), offset, material, slivers)
