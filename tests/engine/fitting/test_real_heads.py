@@ -180,28 +180,20 @@ def test_fitted_brows_lower_without_folding():
 
 
 def test_fitted_canthus_slivers_do_not_flip():
-    """SOMA's inner canthus has sliver triangles (one edge 0.2 mm): the canthus nodes' lid targets barely
-    move (the canthal tie), but their attachment was the weakest around the eye (its gain falls with the
-    lid weight), so the closing upper lid dragged one node 0.1 mm past its neighbour and the triangle
-    flipped in blink and eyeWide. The canthal tendons now hold those nodes firmly (``LidRig.canthus_tie``,
-    thesis 3.1.2 "Eyes, Teeth, Tongue"): these shapes fold no triangle."""
+    """SOMA's inner canthus has sliver triangles: two vertices 0.2 mm apart (one edge 0.2 mm), and flat caps
+    whose corner lies 0.1-0.2 mm from the opposite edge.
+    - The canthus nodes' lid targets barely move (the canthal tie), but their attachment was the weakest
+      around the eye (its gain falls with the lid weight), so the closing upper lid dragged one node 0.1 mm
+      past its neighbour and the triangle flipped in blink and eyeWide. The canthal tendons now hold those
+      nodes firmly (``LidRig.canthus_tie``, thesis 3.1.2 "Eyes, Teeth, Tongue").
+    - However firmly the canthus is held, a sub-millimetre difference in how a sliver's nodes are pulled turned
+      it over when the eyes looked up or down. The apex of every sliver now follows its edge
+      (``network.SliverTies``).
+    These shapes fold no triangle (audited without their mirror partners, their asymmetry is not checked here;
+    the full bench checks it)."""
     vertices, faces = _head("soma")
     rig = build_fitted_rig(vertices, faces, seed=0)
-    shapes = ("eyeBlinkRight", "eyeWideLeft", "eyeWideRight")
-    report = audit_shapes(rig, load_expressions("arkit"), shapes)
-    inverted = {shape: report["rows"][shape][0]["inverted"] for shape in shapes}
-    assert not any(inverted.values()), inverted
-
-
-def test_fitted_sliver_triangles_do_not_flip_when_the_eyes_look():
-    """SOMA's inner canthus has sliver triangles: two vertices 0.2 mm apart, and flat caps whose corner lies
-    0.1-0.2 mm from the opposite edge. However firmly the canthus is held, a sub-millimetre difference in
-    how a sliver's nodes are pulled turned it over when the eyes looked up or down. The apex of every sliver
-    now follows its edge (``network.SliverTies``): these shapes fold no triangle (audited without their
-    mirror partners, their asymmetry is not checked here; the full bench checks it)."""
-    vertices, faces = _head("soma")
-    rig = build_fitted_rig(vertices, faces, seed=0)
-    shapes = ("eyeLookUpLeft", "eyeLookDownLeft", "eyeLookDownRight")
+    shapes = ("eyeBlinkRight", "eyeWideLeft", "eyeWideRight", "eyeLookUpLeft", "eyeLookDownLeft", "eyeLookDownRight")
     report = audit_shapes(rig, load_expressions("arkit"), shapes)
     inverted = {shape: report["rows"][shape][0]["inverted"] for shape in shapes}
     assert not any(inverted.values()), inverted
