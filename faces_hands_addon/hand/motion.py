@@ -11,7 +11,7 @@ A pose may carry a second stage, beyond the thesis: ``"squeeze"`` sets the contr
 first stage has settled (a fist closes, then squeezes isometrically: the thenar muscles contract while the
 thumb rests on the curled fingers, :mod:`.thumb_contact`, so the thenar eminence swells, Fig. 6.18, without
 the thumb crossing the palm before the fingers have closed). :func:`pose_stages` gives both stages,
-``HandRig.settled(..., squeeze=...)`` settles them in turn, and a motion holds a staged pose's key for
+``HandRig.settled_stages`` settles them in turn, and a motion holds a staged pose's key for
 :data:`SQUEEZE_AFTER` seconds, keys its squeeze :data:`SQUEEZE_RISE` after that (close, then squeeze) and
 lets go of it :data:`SQUEEZE_RISE` before the next key (a hand opening while the thenar still pulled swung the
 released thumb across the palm). The thumb must have come to rest on the fingers first: with the squeeze keyed 0.3 s after the fist's key, or with

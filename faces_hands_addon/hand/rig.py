@@ -20,12 +20,12 @@ it is loaded. Deterministic: the same presets, input and control values give byt
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Mapping
+from typing import Mapping, Sequence
 
 import numpy as np
 from scipy import sparse
 
-from ..anim.layers import mix
+from ..anim.layers import BASE_LAYER, mix
 from ..core import geometry
 from ..core.controls import ControlSpec, clamp_controls
 from ..core.errors import UserError
@@ -139,17 +139,22 @@ class HandRig:
         return self.pose()
 
     def settled(self, layer_values: LayerValues, max_time: float = 2.0, dt: float = 1 / 30,
-                squeeze: Mapping[str, float] | None = None) -> Pose:
-        """The pose the hand settles into from rest with the mixed ``layer_values``; with ``squeeze`` (a staged
-        pose's second stage, :func:`.motion.pose_stages`) those contractions are then set and the hand settles
-        again from there (up to ``max_time`` each)."""
+                then: Sequence[Mapping[str, float]] = ()) -> Pose:
+        """The pose the hand settles into from rest with the mixed ``layer_values``; each contraction set of
+        ``then`` is set once the hand has settled before it, and it settles again (up to ``max_time`` each)."""
         self.reset()
         self.set_controls(mix(layer_values, self.specs))
         self.settle(max_time, dt)
-        if squeeze:
-            self.set_controls(squeeze)
+        for values in then:
+            self.set_controls(values)
             self.settle(max_time, dt)
         return self.pose()
+
+    def settled_stages(self, stages: Sequence[Mapping[str, float]], max_time: float = 2.0,
+                       dt: float = 1 / 30) -> Pose:
+        """A preset pose stage by stage (:func:`.motion.pose_stages`: a staged pose's squeeze once its first
+        stage has settled) settled from rest, as the contact sheets show it."""
+        return self.settled({BASE_LAYER: stages[0]}, max_time, dt, stages[1:])
 
     def rest_pose(self) -> Pose:
         eye = {name: np.eye(4) for name in self.skeleton.names}

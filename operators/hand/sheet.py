@@ -16,7 +16,6 @@ from typing import Callable
 import bpy
 import numpy as np
 
-from ...faces_hands_addon.anim.layers import BASE_LAYER
 from ...faces_hands_addon.hand import motion
 from ..common import render
 from ..common.poses import push_pose
@@ -109,7 +108,7 @@ def cell_pose(rig, values, hold: bool, settle_time: float = 2.5):
         rig.reset()
         rig.set_controls(stages[-1])
         return rig.pose_joints(np.zeros(rig.skeleton.dof_count), settle_time)
-    return rig.settled({BASE_LAYER: stages[0]}, settle_time, squeeze=stages[-1] if len(stages) > 1 else None)
+    return rig.settled_stages(stages, settle_time)
 
 
 @contextlib.contextmanager

@@ -16,8 +16,7 @@ from faces_hands_addon.hand.skin_shape import fold_vertices
 def settle_pose(rig, name: str, max_time: float):
     """The preset pose ``name`` settled from rest as the contact sheet does (a staged pose's squeeze after its
     first stage has settled, motion.pose_stages)."""
-    stages = motion.pose_stages(name, rig.muscle_names)
-    return rig.settled({"ctrl": stages[0]}, max_time, squeeze=stages[-1] if len(stages) > 1 else None)
+    return rig.settled_stages(motion.pose_stages(name, rig.muscle_names), max_time)
 
 
 @pytest.fixture(scope="module")
@@ -226,7 +225,7 @@ def test_the_fist_squeezes_with_its_thumb_curled_on_the_fingers(rig):
     rig.reset()
     rig.settled({"ctrl": stages[0]}, 3.0)
     closed = rig.joint_angles
-    rig.settled({"ctrl": stages[0]}, 3.0, squeeze=stages[1])
+    rig.settled_stages(stages, 3.0)
     squeezed = rig.joint_angles
     lift, _, _ = rig.bulge_lift(squeezed)
     rig.reset()

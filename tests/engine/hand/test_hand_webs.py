@@ -27,8 +27,7 @@ POSES = ["rest"] + motion.pose_names()
 def settle_pose(rig, name: str, max_time: float):
     """The preset pose ``name`` settled from rest as the contact sheet does (a staged pose's squeeze after its
     first stage has settled, motion.pose_stages)."""
-    stages = motion.pose_stages(name, rig.muscle_names)
-    return rig.settled({"ctrl": stages[0]}, max_time, squeeze=stages[-1] if len(stages) > 1 else None)
+    return rig.settled_stages(motion.pose_stages(name, rig.muscle_names), max_time)
 
 
 @pytest.fixture(scope="module")
