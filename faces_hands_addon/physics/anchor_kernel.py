@@ -78,7 +78,7 @@ def moved_nodes(positions, nodes, last, moved, everything, x_out, active_out):  
     return count
 
 
-def nearest_in_bone(px, py, pz, bone, vertices, vertex_start, order, starts, cube_start, origin, dims, cell,
+def nearest_in_bone(px, py, pz, bone, vertices, order, starts, cube_start, origin, dims, cell,
                     reach):  # pragma: no cover - compiled
     """The nearest vertex of ``bone`` closer than ``reach`` to the bone-frame point, ``(distance, row)``,
     ``(inf, -1)`` where none is; ties go to the lower vertex index, as ``cKDTree.query`` answers them."""
@@ -118,7 +118,7 @@ def nearest_in_bone(px, py, pz, bone, vertices, vertex_start, order, starts, cub
     return math.inf, -1
 
 
-def nearest_bone_planes(x, active, count, rotations, shifts, vertices, normals, vertex_start, order, starts,
+def nearest_bone_planes(x, active, count, rotations, shifts, vertices, normals, order, starts,
                         cube_start, origin, dims, cell, reach, facing, use_facing, owner, local_point,
                         local_normal, best, local_own):  # pragma: no cover - compiled
     """For each active node (rows ``active[:count]`` of ``x``, world (K, 3)): over the bones in order, the
@@ -135,7 +135,7 @@ def nearest_bone_planes(x, active, count, rotations, shifts, vertices, normals, 
             px = rx * rotations[b, 0, 0] + ry * rotations[b, 1, 0] + rz * rotations[b, 2, 0]
             py = rx * rotations[b, 0, 1] + ry * rotations[b, 1, 1] + rz * rotations[b, 2, 1]
             pz = rx * rotations[b, 0, 2] + ry * rotations[b, 1, 2] + rz * rotations[b, 2, 2]
-            dist, v = nearest_in_bone(px, py, pz, b, vertices, vertex_start, order, starts, cube_start, origin,
+            dist, v = nearest_in_bone(px, py, pz, b, vertices, order, starts, cube_start, origin,
                                       dims, cell, reach)
             if v < 0 or not dist < nearest:
                 continue

@@ -104,10 +104,8 @@ class BoneHalfSpaceGuard:
         self._posed = True
         if which is None and _compiled_guards(self.backend) is not None:
             every = np.arange(len(self.nodes))
-            kernel.compiled(anchor_kernel.pose_planes)(
-                every, len(every), self.bone, np.ascontiguousarray([m[:3, :3] for m in self._transforms]),
-                np.ascontiguousarray([m[:3, 3] for m in self._transforms]), self.local_point, self.local_normal,
-                self.point, self.normal)
+            kernel.compiled(anchor_kernel.pose_planes)(every, len(every), self.bone, *self._bone_frames(),
+                                                       self.local_point, self.local_normal, self.point, self.normal)
             return
         for index, matrix in enumerate(self._transforms):
             if which is None:            # every plane: whole-array products, kept where the bone is this one
@@ -223,6 +221,11 @@ class BoneHalfSpaceGuard:
             self._last[:, active] = x.T
         self._pose(active)
 
+    def _bone_frames(self) -> tuple[np.ndarray, np.ndarray]:
+        """The bones' current rotations (B, 3, 3) and translations (B, 3), as the compiled loops take them."""
+        return (np.ascontiguousarray([m[:3, :3] for m in self._transforms]),
+                np.ascontiguousarray([m[:3, 3] for m in self._transforms]))
+
     def _refresh_compiled(self, positions: np.ndarray, everything: bool) -> None:
         """:meth:`refresh` in the compiled loops of :mod:`.anchor_kernel` (same nodes, vertices and planes
         as the numpy code above, which stays the reference); the exact closest points stay in numpy."""
@@ -235,12 +238,11 @@ class BoneHalfSpaceGuard:
         count = moved(positions, self.nodes, self._last, self._moved, everything, x, active)
         if not count:
             return
-        rotations = np.ascontiguousarray([m[:3, :3] for m in self._transforms])
-        shifts = np.ascontiguousarray([m[:3, 3] for m in self._transforms])
+        rotations, shifts = self._bone_frames()
         grids = self._packed
         best, local_own = np.empty(count), np.empty((count, 3))
         facing = self._facing if self._facing is not None else np.zeros((3, 0))
-        nearest(x, active, count, rotations, shifts, grids.vertices, grids.normals, grids.vertex_start, grids.order,
+        nearest(x, active, count, rotations, shifts, grids.vertices, grids.normals, grids.order,
                 grids.starts, grids.cube_start, grids.origin, grids.dims, grids.cell, self._reach, facing,
                 self._facing is not None, self.bone, self.local_point, self.local_normal, best, local_own)
         active = active[:count]

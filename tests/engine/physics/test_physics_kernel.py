@@ -171,7 +171,7 @@ def test_compiled_nearest_bone_vertex_matches_the_kd_tree():
     for bone, vertices in enumerate(bones):
         points = vertices[rng.integers(0, len(vertices), 4000)] * rng.uniform(0.7, 1.4, (4000, 1))
         points[:50] += 1.0                                                     # far outside the grid
-        found = [search(*p, bone, grids.vertices, grids.vertex_start, grids.order, grids.starts, grids.cube_start,
+        found = [search(*p, bone, grids.vertices, grids.order, grids.starts, grids.cube_start,
                         grids.origin, grids.dims, grids.cell, reach) for p in points]
         dist = np.array([d for d, _ in found])
         index = np.array([v - grids.vertex_start[bone] if v >= 0 else len(vertices) for _, v in found])
