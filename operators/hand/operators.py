@@ -96,9 +96,18 @@ class FH_OT_apply_hand_pose(HardenedOperator, bpy.types.Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     pose: bpy.props.EnumProperty(name="Pose", items=_pose_items, description="The preset pose")
+    squeeze: bpy.props.BoolProperty(
+        name="Squeeze", default=False,
+        description="Set the pose's second stage, its squeeze (the fist's thenar muscles contract). Apply it once the "
+                    "live preview has closed the hand: squeezing from an open hand swings the thumb across the palm")
 
     def run(self, context):
-        services.apply_pose(_active_hand(context), self.pose)
+        _, staged = services.apply_pose(_active_hand(context), self.pose, self.squeeze)
+        if staged and not self.squeeze:
+            self.report({"INFO"}, f"'{self.pose}' has a squeeze: apply it again with Squeeze on once the hand has "
+                                  "closed, or key both stages with Animate Hand")
+        elif self.squeeze and not staged:
+            self.report({"INFO"}, f"'{self.pose}' has no squeeze stage; its contractions are set")
         return {"FINISHED"}
 
 

@@ -49,16 +49,20 @@ def hand_object(blend: str | None, rig_name: str | None = None, progress=None):
     return build_hand_object(progress)
 
 
-def apply_pose(obj, name: str) -> dict[str, float]:
-    """Set the artist's layer to the preset pose ``name`` (every other muscle relaxed); a staged pose's first
-    stage only: a static layer is simulated from rest, where a squeeze from the start swings the thumb across
-    the palm before it rests on the fingers (Animate Hand with the pose keys both stages, hand/motion.py)."""
+def apply_pose(obj, name: str, squeeze: bool = False) -> tuple[dict[str, float], bool]:
+    """Set the artist's layer to the preset pose ``name`` (every other muscle relaxed). A staged pose
+    (:func:`.motion.pose_stages`) gives its first stage, or with ``squeeze`` its second: a static layer is
+    simulated from wherever the hand is, and a squeeze from rest swings the thumb across the palm before it
+    rests on the fingers, so the artist applies the squeeze once the live preview has closed the hand (Animate
+    Hand with the pose keys both stages in turn, hand/motion.py). Returns the contractions set and whether the
+    pose has a squeeze."""
     rig = get_rig(obj, KIND)
-    values = motion.pose_contractions(name, rig.muscle_names)
+    stages = motion.pose_stages(name, rig.muscle_names)
+    values = stages[-1 if squeeze else 0]
     for muscle in rig.muscle_names:
         obj[controls.prop_name(muscle, BASE_LAYER)] = float(values.get(muscle, 0.0))
     obj.update_tag()
-    return values
+    return values, len(stages) > 1
 
 
 def animate(context, obj, name: str, start_frame: int | None = None) -> tuple[int, int]:

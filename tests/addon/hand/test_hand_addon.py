@@ -110,6 +110,22 @@ def test_solve_contractions_for_a_posed_armature(bpy_clean):
     assert arm.pose.bones["index-finger-phalanx-proximal"].rotation_euler.x == 0.0
 
 
+def test_apply_hand_pose_sets_a_staged_pose_stage_by_stage(bpy_clean):
+    bpy = bpy_clean
+    obj = _build(bpy)
+    motion = addon_module("faces_hands_addon.hand.motion")
+    names = [k[8:] for k in obj.keys() if k.startswith("fh.ctrl.")]
+    fist, squeezed = motion.pose_stages("fist", names)
+    assert squeezed != fist
+    for squeeze, stage in ((False, fist), (True, squeezed)):
+        assert bpy.ops.faces_hands.apply_hand_pose(pose="fist", squeeze=squeeze) == {"FINISHED"}
+        values = {n: obj[f"fh.ctrl.{n}"] for n in names}
+        assert values == pytest.approx({n: stage.get(n, 0.0) for n in names})
+    assert bpy.ops.faces_hands.apply_hand_pose(pose="point", squeeze=True) == {"FINISHED"}   # no squeeze: the pose
+    assert {n: obj[f"fh.ctrl.{n}"] for n in names} == pytest.approx(
+        {n: motion.pose_contractions("point", names).get(n, 0.0) for n in names})
+
+
 def test_bake_and_export_glb_and_fbx(bpy_clean, tmp_path):
     bpy = bpy_clean
     obj = _build(bpy)

@@ -182,8 +182,24 @@ def test_a_staged_pose_in_a_motion_squeezes_after_its_key_and_lets_go_before_the
     assert keyed[k + 1] == fist and keyed[k + 2] == squeezed and keyed[k + 3] == fist
     assert times[k + 1] - times[k] == pytest.approx(motion.SQUEEZE_AFTER)
     assert times[k + 4] - times[k + 3] == pytest.approx(motion.SQUEEZE_RISE)
-    times, keyed = motion.motion_keys("showcase", names)                 # no room: the fist's first stage only
-    assert squeezed not in keyed and fist in keyed
+    times, keyed = motion.motion_keys("showcase", names)                 # the demo's motion squeezes its fist
+    assert squeezed in keyed
+
+
+def test_a_staged_pose_without_room_before_the_next_key_keeps_its_first_stage(rig, tmp_path):
+    from faces_hands_addon.core import presets
+    doc = json.loads((presets.SHIPPED_FOLDER / "hand" / "poses.json").read_text())
+    doc["motions"]["quick_fist"] = {"description": "test", "keys": [[0.0, "relaxed"], [0.8, "fist"], [1.6, "point"]]}
+    (tmp_path / "hand").mkdir()
+    (tmp_path / "hand" / "poses.json").write_text(json.dumps(doc))
+    before = presets.user_folder()
+    presets.set_user_folder(tmp_path)
+    try:
+        times, keyed = motion.motion_keys("quick_fist", rig.muscle_names)
+    finally:
+        presets.set_user_folder(before)
+    fist, squeezed = motion.pose_stages("fist", rig.muscle_names)
+    assert squeezed not in keyed and fist in keyed and len(times) == 3
 
 
 def test_every_preset_pose_and_motion_reads(rig):
