@@ -143,6 +143,9 @@ def main() -> int:
             "browser vs simulation (what ships)": stats(bake_browser)}
     for label, s in rows.items():
         print(f"  {label:36s} median {s['median']:.3f} mm, p95 {s['p95']:.3f} mm, max {s['max']:.3f} mm")
+    worst_export = int(np.argmax(export.max(axis=1)))
+    print(f"  export's worst frame {job.frames[worst_export]}: max {export[worst_export].max() * 1000:.3f} mm, "
+          f"{int((export[worst_export] > 1e-4).sum())} vertices over 0.1 mm")
     worst_frame = int(np.argmax(bake_browser.max(axis=1)))
     print(f"  worst frame {job.frames[worst_frame]} (t = {times[worst_frame]:.2f} s): max {bake_browser[worst_frame].max() * 1000:.2f} mm")
     ok = validation["numErrors"] == 0 and played["info"]["boundTracks"] == len(played["info"]["tracks"])
