@@ -187,10 +187,11 @@ class HandRig:
         if not (dt > 0 and np.isfinite(dt)):
             raise UserError("the frame time step must be a positive number of seconds")
         contraction = self.contraction_vector()
+        before = self.pseudo.angles.copy()
         self.pseudo.step(contraction, dt)
         self.contact.resolve()
         angles = self.pseudo.angles
-        self.contact.keep(angles, self.thumb_contact.resolve(self.contact.transforms(angles)))
+        self.contact.keep(angles, self.thumb_contact.resolve(self.contact.transforms(angles), before))
         self._advance_skin(contraction, dt)
 
     def _advance_skin(self, contraction: np.ndarray, dt: float) -> None:
@@ -311,19 +312,21 @@ class HandRig:
 
     # -- persistence -----------------------------------------------------------------------------
     def save(self, path: str | Path) -> None:
-        """Write the rig (.npz, no pickles): presets, side, photo input, material, controls and state."""
+        """Write the rig (.npz, no pickles): presets, side, photo input, material, controls and state (the
+        joints, the skin and the thumb's sticking hold)."""
         p = self.template.presets
         meta = {"format": HAND_RIG_FORMAT, "side": self.side, "photo": self.photo, "material": self.material.to_dict(),
                 "controls": {k: float(v) for k, v in self.controls.items()}, "time": self.time,
                 "started": self.hand.integrator.started,
                 "presets": {"joints": p.joints, "muscles": p.muscles, "geometric": p.geometric}}
         arrays = {"angles": self.pseudo.angles, "angular_velocity": self.pseudo.velocity,
-                  "positions": self.hand.network.positions, "velocity": self.hand.integrator.velocity}
+                  "positions": self.hand.network.positions, "velocity": self.hand.integrator.velocity,
+                  **self.thumb_contact.state()}
         write_rig_archive(path, meta, arrays)
 
     @classmethod
     def load(cls, path: str | Path) -> "HandRig":
-        meta, arrays = read_rig_archive(path, HAND_RIG_FORMAT, "hand rig", STATE_ARRAYS)
+        meta, arrays = read_rig_archive(path, HAND_RIG_FORMAT, "hand rig", STATE_ARRAYS, ("thumb_held_",))
         try:
             texts = PresetTexts(**meta["presets"])
             rig = build_hand_rig(meta["side"], meta.get("photo"), HandMaterial(**meta["material"]), texts)
@@ -338,6 +341,7 @@ class HandRig:
         rig.hand.network.positions[...] = arrays["positions"]
         rig.hand.integrator.velocity[...] = arrays["velocity"]
         rig.hand.integrator.started = bool(meta["started"])
+        rig.thumb_contact.restore(arrays)
         rig._transforms = rig.skeleton.bone_transforms(rig.pseudo.angles)
         rig.hand.network.set_attachment_targets(*rig.hand.set_targets(
             rig.attachment_targets(rig._transforms, rig.contraction_vector())))

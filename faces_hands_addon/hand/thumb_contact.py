@@ -22,6 +22,21 @@ curl and is pushed out to the back of that phalanx (the outside of the fist), no
 the thumb touches (within ``STICK``), its angles are held unless it moves off the fingers (sticking friction),
 so the thenar muscles' push does not slide it off. Only the thumb moves: the fingers are curled by the long
 flexors, far stronger.
+
+The contact is continuous: a frame's motion is checked along its way, not only where it ends. The thumb's
+inertia is small (Eq. 6.8) against the thenar muscles' torque, so in one 1/30 s frame a held thumb (at rest
+every frame) could turn 40-50 degrees; checked only at the end position, the squeeze of the showcase motion
+(:mod:`.motion`) carried it right through the curled fingers to its CMC limits in one frame (tunnelling: the
+end position lay past the fingers, 8 mm clear of them on the palm side, so nothing pushed it back) and back
+out 12 frames later. Now, when a thumb or finger sample travels more than ``SWEPT_STEP`` (a quarter of the
+contact distance) relative to the other over a frame, the motion from the frame's start angles to its end
+angles (straight in joint space, fingers and thumb together) is checked every ``SWEPT_STEP``; at the first
+check where a thumb sample comes nearer a finger than its contact distance (or than it started, if it
+started nearer), the first touch is found by bisection and the thumb's DOFs are put there with their speed
+removed: the fingers stop the thumb as a joint limit does (Eq. 6.7 with Table 6.4: the angle is held at the
+stop and the speed into it dropped). The usual contact resolution then runs from there. A frame whose
+samples travel less than ``SWEPT_STEP`` is checked at its end only, as before (a sample cannot cross a
+15-19 mm contact zone in one such step).
 Deterministic; ``enabled = False`` leaves the muscles alone.
 """
 from __future__ import annotations
@@ -45,6 +60,8 @@ TOLERANCE = 2e-4          # m of shortfall left alone
 MAX_TURN = np.radians(6.0)
 STICK = 0.001             # m: a thumb this near its contact distance is touching (sticking friction)
 RELEASE = 0.003           # m: a held thumb stays held within this (the fingers settling under it part by ~0.1 mm)
+SWEPT_STEP = 0.004        # m a thumb or finger sample may travel between two contact checks along a frame's motion
+BISECTIONS = 5
 
 
 def _points(skeleton: Skeleton, bones: list[int], samples: int) -> tuple[np.ndarray, np.ndarray]:
@@ -109,6 +126,17 @@ class ThumbContact:
     def reset(self) -> None:
         self._held = None
 
+    def state(self) -> dict[str, np.ndarray]:
+        """The sticking hold as arrays named ``thumb_held_*`` (none while the thumb is free), for a saved rig."""
+        if self._held is None:
+            return {}
+        return dict(zip(("thumb_held_angles", "thumb_held_gaps", "thumb_held_pressing"), self._held))
+
+    def restore(self, arrays: dict[str, np.ndarray]) -> None:
+        """Take back a hold saved by :meth:`state` (free when ``arrays`` holds none)."""
+        names = ("thumb_held_angles", "thumb_held_gaps", "thumb_held_pressing")
+        self._held = tuple(np.asarray(arrays[n], np.float64) for n in names) if names[0] in arrays else None
+
     def _axes(self, transforms: np.ndarray, angles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """World axes (D, 3) of the DOFs (signed like them; a joint turns ``F Rx Ry Rz F^T``, :mod:`.skeleton`)
         and their joint centres (D, 3)."""
@@ -150,12 +178,44 @@ class ThumbContact:
         jac = np.einsum("rdi,ri->rd", lever, normal) * self.moves[:, close].T
         return short, jac
 
-    def resolve(self, transforms: np.ndarray) -> np.ndarray:
+    def _stop_at_contact(self, before: np.ndarray, transforms: np.ndarray) -> np.ndarray:
+        """Continuous contact (module docstring): along the frame's motion from the angles ``before`` to the
+        current ones (straight in joint space), the thumb stops where a sample first meets the fingers."""
+        sk, angles = self.skeleton, self.pseudo.angles
+        start, end = self._measure(sk.bone_transforms(before)), self._measure(transforms)
+        moved = end[1] - start[1]                       # each thumb sample's travel relative to each finger's
+        travel = float(np.sqrt(np.einsum("tfi,tfi->tf", moved, moved).max()))
+        steps = int(np.ceil(travel / SWEPT_STEP))
+        if steps <= 1:
+            return transforms
+        floor = np.minimum((start[2] - self.distance).min(axis=1), 0.0) - TOLERANCE
+        touching = lambda s: np.any(self.gaps(sk.bone_transforms(before + s * (angles - before))) < floor)
+        reached = 0.0
+        for k in range(1, steps + 1):
+            if touching(k / steps):
+                break
+            reached = k / steps
+        else:
+            return transforms
+        low, high = reached, k / steps                  # the first touch lies between: bisect for it
+        for _ in range(BISECTIONS):
+            middle = 0.5 * (low + high)
+            low, high = (low, middle) if touching(middle) else (middle, high)
+        thumb = self.held_dofs
+        angles[thumb] = before[thumb] + low * (angles[thumb] - before[thumb])
+        self.pseudo.velocity[thumb] = 0.0
+        return sk.bone_transforms(angles)
+
+    def resolve(self, transforms: np.ndarray, before: np.ndarray | None = None) -> np.ndarray:
         """Push the thumb out of the fingers (module docstring), at the bone ``transforms`` of the current
-        angles; returns the transforms of the angles it leaves (the same array when the thumb did not move)."""
+        angles, having stopped it where it first met them on its way from the angles ``before`` (the frame's
+        start), if given; returns the transforms of the angles it leaves (the same array when the thumb did
+        not move)."""
         pseudo, angles, dofs = self.pseudo, self.pseudo.angles, self.dofs
         if not self.enabled:
             return transforms
+        if before is not None:
+            transforms = self._stop_at_contact(np.asarray(before, np.float64), transforms)
         measured = None
         if self._held is not None:              # sticking: held unless every sample moved off the fingers
             held, before, pressing = self._held

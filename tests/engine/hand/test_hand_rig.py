@@ -186,6 +186,43 @@ def test_a_staged_pose_in_a_motion_squeezes_after_its_key_and_lets_go_before_the
     assert squeezed in keyed
 
 
+def _thumb_inside_the_curl(rig) -> float:
+    """How far (m) a thumb sample lies on the palm side of the curled middle/ring phalanx it is nearest, less
+    the two bones' contact distance (positive: past that phalanx, inside the curl; hand/thumb_contact.py)."""
+    tc = rig.thumb_contact
+    transforms = rig.skeleton.bone_transforms(rig.pseudo.angles)
+    points, between, distance = tc._measure(transforms)
+    nearest, rows = np.argmin(distance - tc.distance, axis=1), np.arange(len(points))
+    palmar = np.einsum("fij,fj->fi", transforms[tc.finger_owner][:, :3, :3], tc.palmar)
+    depth = np.einsum("ti,ti->t", between[rows, nearest], palmar[nearest]) - tc.distance[rows, nearest]
+    close = distance[rows, nearest] - tc.distance[rows, nearest] < 0.010
+    return float(np.where(tc.curl[nearest] & close, depth, -1.0).max())
+
+
+def test_the_showcase_thumb_never_snaps_through_the_curled_fingers(rig):
+    """Frame by frame through the demo's motion (its fist squeezes, then points, gives a thumbs up): while the
+    middle and ring fingers are curled, no thumb DOF turns more than 10 degrees in one frame and no thumb sample
+    ends up past the phalanx it rests on. Before the continuous thumb contact the squeeze's rising thenar pull
+    carried the held thumb through the fingers in one frame (frame 62: CMC 15.6/9.0 -> 55/-40 degrees, both
+    Table 6.4 limits, MCP 27.4 -> 81.4; 29 mm past the phalanx), and it came back out at frames 74-75."""
+    names = rig.skeleton.dof_names()
+    thumb = [k for k, n in enumerate(names) if n.startswith("thumb-")]
+    curl = [[names.index(f"{f}-finger-phalanx-{p}.flexion") for p in ("proximal", "intermediate")]
+            for f in ("middle", "ring")]
+    _, table = motion.motion_table("showcase", rig.muscle_names, 30.0)
+    previous, curled, jumps, inside = None, [], [], []
+    for state in bake.simulate_frames(rig, table, DT):
+        angles = np.degrees(state.angles)
+        curled.append(min(angles[a] + angles[b] for a, b in curl) > 90.0)
+        jumps.append(0.0 if previous is None else float(np.abs(angles[thumb] - previous).max()))
+        inside.append(_thumb_inside_the_curl(rig))
+        previous = angles[thumb]
+    curled = np.array(curled)
+    assert curled.sum() > 100                                 # the fist, the point and the thumbs up
+    assert np.array(jumps)[curled].max() < 10.0
+    assert np.array(inside)[curled].max() < 0.0
+
+
 def test_a_staged_pose_without_room_before_the_next_key_keeps_its_first_stage(rig, tmp_path):
     from faces_hands_addon.core import presets
     doc = json.loads((presets.SHIPPED_FOLDER / "hand" / "poses.json").read_text())
