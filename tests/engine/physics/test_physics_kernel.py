@@ -292,3 +292,29 @@ def test_compiled_muscle_deformation_matches_numpy(monkeypatch):
             assert np.abs(getattr(compiled, field) - getattr(reference, field)).max() < 1e-15, field
         moved = max(moved, float(np.abs(reference.displacement).max()))
     assert moved > 1e-3                                                    # the muscles contracted
+
+
+def test_compiled_sliver_ties_match_numpy(monkeypatch):
+    """The sliver ties' placement (face/sliver_kernel.py, used once the kernel is loaded) against the numpy
+    reference (network.SliverTies.__call__): a strip of flat triangles, whose ties share nodes (several
+    batches; an apex is another tie's edge end), on jittered positions and velocities."""
+    from faces_hands_addon.face.network import SliverTies
+    rng = np.random.default_rng(11)
+    count = 40
+    vertices = np.stack([np.arange(count) * 0.001, np.zeros(count), rng.uniform(-1e-4, 1e-4, count)], 1)
+    faces = np.stack([np.arange(count - 2), np.arange(1, count - 1), np.arange(2, count)], 1)
+    ties = SliverTies.build(vertices, faces, np.ones(count, bool))
+    assert len(ties.batches) > 1
+    kernel.substep_kernel()
+    assert kernel.loaded()
+    for trial in range(4):
+        x = np.ascontiguousarray(vertices.T + rng.normal(size=(3, count)) * 0.0005)
+        v = rng.normal(size=(3, count)) * 0.01
+        compiled_x, compiled_v, reference_x, reference_v = x.copy(), v.copy(), x.copy(), v.copy()
+        ties(compiled_x, compiled_v)
+        with monkeypatch.context() as patch:
+            patch.setattr(kernel, "loaded", lambda: False)
+            ties(reference_x, reference_v)
+        assert np.abs(reference_x - x).max() > 1e-5                         # the ties moved the apices
+        assert np.abs(compiled_x - reference_x).max() < 1e-15
+        assert np.abs(compiled_v - reference_v).max() < 1e-15
