@@ -318,3 +318,27 @@ def test_compiled_sliver_ties_match_numpy(monkeypatch):
         assert np.abs(reference_x - x).max() > 1e-5                         # the ties moved the apices
         assert np.abs(compiled_x - reference_x).max() < 1e-15
         assert np.abs(compiled_v - reference_v).max() < 1e-15
+
+
+def test_compiled_jaw_carry_and_offsets_match_numpy(monkeypatch):
+    """The rest positions carried by the jaw and the anchor offsets turned with it (face/attachment_kernel.py,
+    used once the kernel is loaded) against the numpy reference (attachment.AttachmentMap.carried and
+    posed_offsets): the jaw at rest and opened, turned, pushed forward."""
+    from faces_hands_addon.face.kinematics import jaw_matrix
+    from faces_hands_addon.face.rig import build_default_rig
+    rig = build_default_rig("default")
+    attachment, bones, rest = rig.template.attachment, rig.template.bones, rig.template.skin.vertices
+    kernel.substep_kernel()
+    assert kernel.loaded()
+    rng = np.random.default_rng(13)
+    jaws = [jaw_matrix(bones.tmj_pivot, bones.tmj_axis, *values, glide=bones.jaw_glide)
+            for values in rng.uniform(-0.3, 1.0, (4, 4))]
+    for jaw in (np.eye(4), *jaws):
+        compiled = (attachment.carried(rest, jaw), attachment.posed_offsets(rig.face.anchor_offset, jaw))
+        with monkeypatch.context() as patch:
+            patch.setattr(kernel, "loaded", lambda: False)
+            reference = (attachment.carried(rest, jaw), attachment.posed_offsets(rig.face.anchor_offset, jaw))
+        for got, wanted in zip(compiled, reference):
+            assert np.abs(got - wanted).max() < 1e-15
+    assert np.abs(reference[0] - rest).max() > 1e-3                        # the jaw carried some nodes
+    assert np.abs(reference[1] - rig.face.anchor_offset).max() > 1e-4     # and turned their offsets
