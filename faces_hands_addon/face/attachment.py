@@ -111,7 +111,13 @@ class AttachmentMap:
         return sparse.csr_matrix(spread)
 
     def carried(self, rest: np.ndarray, jaw: np.ndarray) -> np.ndarray:
-        """Rest positions carried by the bones: the jaw pose ``jaw`` (4x4) moves each node by its weight."""
+        """Rest positions carried by the bones: the jaw pose ``jaw`` (4x4) moves each node by its weight.
+        Once the kernel is loaded, one compiled pass (:func:`.attachment_kernel.carry_rest`)."""
+        if kernel.loaded() and (carry := kernel.compiled(attachment_kernel.carry_rest)) is not None:
+            out = np.empty((len(rest), 3))
+            carry(np.ascontiguousarray(rest, np.float64), np.ascontiguousarray(jaw[:3, :3], np.float64),
+                  np.ascontiguousarray(jaw[:3, 3], np.float64), self.jaw_weight.astype(np.float64, copy=False), out)
+            return out
         moved = rest @ jaw[:3, :3].T + jaw[:3, 3]
         return rest + self.jaw_weight[:, None] * (moved - rest)
 
@@ -124,7 +130,13 @@ class AttachmentMap:
         return np.where((depth > 1e-4)[:, None] & (self.bone_depth > 0)[:, None], offset, inward)
 
     def posed_offsets(self, offsets: np.ndarray, jaw: np.ndarray) -> np.ndarray:
-        """Anchor offsets turned with the jaw for the nodes it carries (more than half)."""
+        """Anchor offsets turned with the jaw for the nodes it carries (more than half). Once the kernel is
+        loaded, one compiled pass (:func:`.attachment_kernel.turn_offsets`)."""
+        if kernel.loaded() and (turn := kernel.compiled(attachment_kernel.turn_offsets)) is not None:
+            out = np.empty((len(offsets), 3))
+            turn(np.ascontiguousarray(offsets, np.float64), np.ascontiguousarray(jaw[:3, :3], np.float64),
+                 self.jaw_weight.astype(np.float64, copy=False), out)
+            return out
         out = offsets.copy()
         on_jaw = self.jaw_weight > 0.5
         out[on_jaw] = out[on_jaw] @ jaw[:3, :3].T

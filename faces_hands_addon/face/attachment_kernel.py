@@ -7,11 +7,13 @@ In numpy it is three sparse products (the muscle displacements, and the jaw-fram
 a few whole-array operations. The jaw-frame correction is linear in the jaw pose, so here it comes from
 four products of the spread matrix taken once (:meth:`.attachment.AttachmentMap.jaw_pull_tables`) at O(N)
 per frame, and only the displacements' product runs, one pass over the matrix. The numpy methods stay the
-reference (same formulas; sums regrouped, which moves the result by rounding only).
+reference (same formulas; sums regrouped, which moves the result by rounding only). The rest positions
+carried by the jaw and the anchor offsets turned with it (the other per-frame inputs of the attachment
+targets, Fig. 3.4) are one pass each here too.
 """
 from __future__ import annotations
 
-__all__ = ["add_muscle_pull"]
+__all__ = ["add_muscle_pull", "carry_rest", "turn_offsets"]
 
 
 def add_muscle_pull(indptr, indices, data, displacement, rest_pull, ones_pull, carry_pull, carry_sum, rotation,
@@ -38,3 +40,26 @@ def add_muscle_pull(indptr, indices, data, displacement, rest_pull, ones_pull, c
             own = (carry_pull[i, 0] * rotation[a, 0] + carry_pull[i, 1] * rotation[a, 1]
                    + carry_pull[i, 2] * rotation[a, 2]) + carry_sum[i] * translation[a] - carry_pull[i, a]
             target[i, a] += own - jaw_weight[i] * moved
+
+
+def carry_rest(rest, rotation, translation, jaw_weight, out):  # pragma: no cover - compiled
+    """:meth:`.attachment.AttachmentMap.carried` in one pass: ``out`` (N, 3) = r + w (R r + t - r) for the rest
+    positions r (N, 3), the jaw's ``rotation`` R and ``translation`` t, and the nodes' ``jaw_weight`` w."""
+    for i in range(rest.shape[0]):
+        for a in range(3):
+            moved = (rest[i, 0] * rotation[a, 0] + rest[i, 1] * rotation[a, 1] + rest[i, 2] * rotation[a, 2]
+                     + translation[a])
+            out[i, a] = rest[i, a] + jaw_weight[i] * (moved - rest[i, a])
+
+
+def turn_offsets(offsets, rotation, jaw_weight, out):  # pragma: no cover - compiled
+    """:meth:`.attachment.AttachmentMap.posed_offsets` in one pass: ``out`` (N, 3) = R o for the nodes the
+    jaw carries more than half (``jaw_weight`` > 0.5), o elsewhere."""
+    for i in range(offsets.shape[0]):
+        if jaw_weight[i] > 0.5:
+            for a in range(3):
+                out[i, a] = (offsets[i, 0] * rotation[a, 0] + offsets[i, 1] * rotation[a, 1]
+                             + offsets[i, 2] * rotation[a, 2])
+        else:
+            for a in range(3):
+                out[i, a] = offsets[i, a]

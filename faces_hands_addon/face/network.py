@@ -37,6 +37,7 @@ from ..physics import (Attachments, BoneHalfSpaceGuard, CapBulge, LeapfrogIntegr
                        SpringNetwork, SpringSet)
 from ..core import geometry
 from ..physics import kernel
+from . import sliver_kernel
 from .attachment import BoneSurface
 from .organs import CORNEA_BULGE, CORNEA_DEG
 from .template import HeadTemplate
@@ -130,11 +131,22 @@ class SliverTies:
         return cls(out)
 
     def __call__(self, positions: np.ndarray, velocity: np.ndarray) -> None:
-        """Place every apex on its edge (positions, velocities (3, N), in place)."""
+        """Place every apex on its edge (positions, velocities (3, N), in place); once the kernel is loaded,
+        in the compiled loop of :mod:`.sliver_kernel` (this numpy code is the reference)."""
+        if self.batches and kernel.loaded() and (place := kernel.compiled(sliver_kernel.place_apices)) is not None:
+            place(positions, velocity, *self._packed(), self.PASSES)
+            return
         for _ in range(self.PASSES if self.batches else 0):
             for apex, start, end, share, offset in self.batches:
                 positions[:, apex] = (1.0 - share) * positions[:, start] + share * positions[:, end] + offset
                 velocity[:, apex] = (1.0 - share) * velocity[:, start] + share * velocity[:, end]
+
+    def _packed(self) -> tuple[np.ndarray, ...]:
+        """The batches concatenated in order (apex, start, end, share, offset (3, T)) for the compiled loop."""
+        if getattr(self, "_flat", None) is None:
+            self._flat = tuple(np.ascontiguousarray(np.concatenate([batch[j] for batch in self.batches], axis=-1))
+                               for j in range(5))
+        return self._flat
 
 
 @dataclass

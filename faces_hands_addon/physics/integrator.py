@@ -125,6 +125,7 @@ class LeapfrogIntegrator:
         self._inverse_mass = self._free / network.masses
         self._accel = np.empty_like(network.positions)
         self._factor_cache = None
+        self._spring_scratch = None          # the fused kernel's per-spring scratch (diff, scale)
         #: "auto" (the fused kernel of .kernel for networks where it pays), "numba" (it whenever numba is
         #: importable) or "numpy" (the reference path)
         self.backend = "auto"
@@ -279,6 +280,8 @@ class LeapfrogIntegrator:
             start_driven = np.ascontiguousarray(start_driven)
         else:
             kin_index, start_driven, delta_driven = self._no_index, empty3, empty3
+        if self._spring_scratch is None or self._spring_scratch[1].shape[0] != sp.count:
+            self._spring_scratch = (np.empty((3, sp.count)), np.empty(sp.count))
         index = 1
         while index <= substeps:
             run_end = min(substeps, ((index - 1) // every + 1) * every) if constraint is not None else substeps
@@ -290,7 +293,7 @@ class LeapfrogIntegrator:
                      net._k_extra, net._k_yield, net._has_yield, net._min_length, att.node, net._att_two_c,
                      net.attachment_pull, start_pull, delta_pull, fast, kin_index, start_driven,
                      delta_driven, driven is not None, inverse_mass, decay, kick, self._free, dt, index,
-                     run_end - index + 1, substeps)
+                     run_end - index + 1, substeps, *self._spring_scratch)
             for _ in range(run_end - index + 1):
                 self.time += dt
             if constraint is not None and (run_end % every == 0 or run_end == substeps):

@@ -70,8 +70,12 @@ def compile_seconds() -> float | None:
 def _substeps(x, v, force, s_start, s_end, rest, k_soft, knee, k_extra, k_yield, has_yield, min_length,
               att_node, att_two_c, pull, start_pull, delta_pull, interp_pull,
               kin_index, start_driven, delta_driven, interp_driven,
-              inverse_mass, decay, kick, free, dt, first, count, substeps):  # pragma: no cover - compiled
-    """Substeps ``first .. first + count - 1`` of a frame of ``substeps`` (see the module docstring)."""
+              inverse_mass, decay, kick, free, dt, first, count, substeps, diff,
+              scale):  # pragma: no cover - compiled
+    """Substeps ``first .. first + count - 1`` of a frame of ``substeps`` (see the module docstring).
+    The springs go in three passes over the scratch ``diff`` (3, S) and ``scale`` (S,): gather the edge
+    vectors, the biphasic ``f / l`` of every spring (a loop without gathers, which the compiler
+    vectorises), then the forces scattered in spring order (the same sums, in the same order, as one pass)."""
     nodes = x.shape[1]
     springs = s_start.shape[0]
     attached = att_node.shape[0]
@@ -90,12 +94,13 @@ def _substeps(x, v, force, s_start, s_end, rest, k_soft, knee, k_extra, k_yield,
         for c in range(3):
             for i in range(nodes):
                 force[c, i] = 0.0
+        for c in range(3):
+            for s in range(springs):
+                diff[c, s] = x[c, s_end[s]] - x[c, s_start[s]]
         for s in range(springs):
-            a = s_start[s]
-            b = s_end[s]
-            dx = x[0, b] - x[0, a]
-            dy = x[1, b] - x[1, a]
-            dz = x[2, b] - x[2, a]
+            dx = diff[0, s]
+            dy = diff[1, s]
+            dz = diff[2, s]
             length = math.sqrt(dx * dx + dy * dy + dz * dz)
             stretch = length - rest[s]
             over = stretch - knee[s]
@@ -103,12 +108,14 @@ def _substeps(x, v, force, s_start, s_end, rest, k_soft, knee, k_extra, k_yield,
             if has_yield:
                 extra = extra + (stretch if stretch < 0.0 else 0.0) * k_yield[s]
             magnitude = stretch * k_soft[s] + extra
-            if length < min_length[s]:
-                length = min_length[s]
-            scale = magnitude / length
-            fx = dx * scale
-            fy = dy * scale
-            fz = dz * scale
+            shortest = min_length[s]
+            scale[s] = magnitude / (shortest if length < shortest else length)
+        for s in range(springs):
+            a = s_start[s]
+            b = s_end[s]
+            fx = diff[0, s] * scale[s]
+            fy = diff[1, s] * scale[s]
+            fz = diff[2, s] * scale[s]
             force[0, a] += fx
             force[1, a] += fy
             force[2, a] += fz
@@ -244,7 +251,8 @@ def substep_kernel():
         if folder is not None:
             numba.config.CACHE_DIR = str(folder)
         jit = numba.njit(cache=folder is not None, nogil=True, boundscheck=False)
-        compiled = jit(_substeps)
+        # IEEE division (no zero-divisor check, the guarded divisor is >= 1e-12): lets the spring loop vectorise
+        compiled = numba.njit(cache=folder is not None, nogil=True, boundscheck=False, error_model="numpy")(_substeps)
         _STATE["half_space"], _STATE["sphere"] = jit(_half_space), jit(_sphere)
         _warm_up(compiled)
     except Exception as error:            # no numba, an unsupported numpy, a broken LLVM: the numpy path
@@ -293,7 +301,7 @@ def _warm_up(compiled) -> None:
     compiled(f3.copy(), f3.copy(), f3.copy(), index, index + 1, one[:1], one[:1], one[:1], one[:1], one[:1],
              False, one[:1] + 1.0, np.zeros(0, np.int64), np.zeros(0), np.zeros((3, 0)), np.zeros((3, 0)),
              np.zeros((3, 0)), False, np.zeros(0, np.int64), np.zeros((3, 0)), np.zeros((3, 0)), False,
-             one + 1.0, one + 1.0, one, one + 1.0, 0.01, 1, 1, 1)
+             one + 1.0, one + 1.0, one, one + 1.0, 0.01, 1, 1, 1, np.zeros((3, 1)), np.zeros(1))
     half_space, sphere = _STATE["half_space"], _STATE["sphere"]
     half_space(f3.copy(), f3.copy(), index, f3[:, :1].copy(), f3[:, :1] + 1.0, f3[:, :1].copy(),
                f3[:, :1] + 1.0, True, 0.5, one[:1])

@@ -292,3 +292,53 @@ def test_compiled_muscle_deformation_matches_numpy(monkeypatch):
             assert np.abs(getattr(compiled, field) - getattr(reference, field)).max() < 1e-15, field
         moved = max(moved, float(np.abs(reference.displacement).max()))
     assert moved > 1e-3                                                    # the muscles contracted
+
+
+def test_compiled_sliver_ties_match_numpy(monkeypatch):
+    """The sliver ties' placement (face/sliver_kernel.py, used once the kernel is loaded) against the numpy
+    reference (network.SliverTies.__call__): a strip of flat triangles, whose ties share nodes (several
+    batches; an apex is another tie's edge end), on jittered positions and velocities."""
+    from faces_hands_addon.face.network import SliverTies
+    rng = np.random.default_rng(11)
+    count = 40
+    vertices = np.stack([np.arange(count) * 0.001, np.zeros(count), rng.uniform(-1e-4, 1e-4, count)], 1)
+    faces = np.stack([np.arange(count - 2), np.arange(1, count - 1), np.arange(2, count)], 1)
+    ties = SliverTies.build(vertices, faces, np.ones(count, bool))
+    assert len(ties.batches) > 1
+    kernel.substep_kernel()
+    assert kernel.loaded()
+    for trial in range(4):
+        x = np.ascontiguousarray(vertices.T + rng.normal(size=(3, count)) * 0.0005)
+        v = rng.normal(size=(3, count)) * 0.01
+        compiled_x, compiled_v, reference_x, reference_v = x.copy(), v.copy(), x.copy(), v.copy()
+        ties(compiled_x, compiled_v)
+        with monkeypatch.context() as patch:
+            patch.setattr(kernel, "loaded", lambda: False)
+            ties(reference_x, reference_v)
+        assert np.abs(reference_x - x).max() > 1e-5                         # the ties moved the apices
+        assert np.abs(compiled_x - reference_x).max() < 1e-15
+        assert np.abs(compiled_v - reference_v).max() < 1e-15
+
+
+def test_compiled_jaw_carry_and_offsets_match_numpy(monkeypatch):
+    """The rest positions carried by the jaw and the anchor offsets turned with it (face/attachment_kernel.py,
+    used once the kernel is loaded) against the numpy reference (attachment.AttachmentMap.carried and
+    posed_offsets): the jaw at rest and opened, turned, pushed forward."""
+    from faces_hands_addon.face.kinematics import jaw_matrix
+    from faces_hands_addon.face.rig import build_default_rig
+    rig = build_default_rig("default")
+    attachment, bones, rest = rig.template.attachment, rig.template.bones, rig.template.skin.vertices
+    kernel.substep_kernel()
+    assert kernel.loaded()
+    rng = np.random.default_rng(13)
+    jaws = [jaw_matrix(bones.tmj_pivot, bones.tmj_axis, *values, glide=bones.jaw_glide)
+            for values in rng.uniform(-0.3, 1.0, (4, 4))]
+    for jaw in (np.eye(4), *jaws):
+        compiled = (attachment.carried(rest, jaw), attachment.posed_offsets(rig.face.anchor_offset, jaw))
+        with monkeypatch.context() as patch:
+            patch.setattr(kernel, "loaded", lambda: False)
+            reference = (attachment.carried(rest, jaw), attachment.posed_offsets(rig.face.anchor_offset, jaw))
+        for got, wanted in zip(compiled, reference):
+            assert np.abs(got - wanted).max() < 1e-15
+    assert np.abs(reference[0] - rest).max() > 1e-3                        # the jaw carried some nodes
+    assert np.abs(reference[1] - rig.face.anchor_offset).max() > 1e-4     # and turned their offsets
