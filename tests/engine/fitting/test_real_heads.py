@@ -225,3 +225,16 @@ def test_fitted_brows_rise_without_the_orbits_roof_holding_them():
     report = audit_shapes(rig, expressions, shapes)
     inverted = {shape: report["rows"][shape][0]["inverted"] for shape in shapes}
     assert not any(inverted.values()), inverted
+
+
+@pytest.mark.parametrize("name", ["makehuman_neutral", "makehuman_african_female_old"])
+def test_fitted_lip_margins_are_where_the_closed_lips_meet(name):
+    """Both MakeHuman heads are modelled with their lips together, but the inner lip landmarks keep the
+    canonical face's ~5.5 mm opening: the margins nearest the template's inner lip contours lay on the front
+    of a lip (the neutral head's upper margin on the upper lip's red, 5.7 mm above the line where the lips
+    meet; the African head's lower margin 5.5 mm down the lower lip's front), so the rig read a closed mouth
+    as open and pressed that lip's red onto the other to close it (``transfer._lip_contact``). The margins
+    now lie where the lips touch: less than 1.5 mm apart at rest."""
+    vertices, faces = _head(name)
+    rig = build_fitted_rig(vertices, faces, seed=0)
+    assert abs(rig.lip_gap()) < 0.0015, rig.lip_gap()
