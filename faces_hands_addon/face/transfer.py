@@ -53,6 +53,7 @@ ACTIVE_REACH = 0.015    # m: muscle and lid influence has faded out here; farthe
 JAW_REACH = 0.080       # m: jaw-carried skin beyond the face fades to the fixed neck over this distance
 JOINT_CLEARANCE = (0.015, 0.045)   # m below the jaw joint over which off-face skin starts following the jaw
 JOINT_BEHIND = (0.005, 0.035)      # m behind the joint over which it stops again (ears, back of the neck)
+SEED_SKIP = 3           # outer lip contour landmarks at each mouth corner that do not seed the side
 MOUTH_REACH = 0.025     # m over the skin from the outer lip contours: where the side of the mouth matters
 MOUTH_REGION = 0.026    # m over the skin from the lip margins: the mouth region (template: 22 mm)
 OPENING_RATIO = 1.8     # path over the skin / straight distance above which there is an opening
@@ -205,8 +206,12 @@ def transfer_to_mesh(template: HeadTemplate, vertices: np.ndarray, faces: np.nda
         return used_index[tree.query(points)[1]]
 
     # -- the side of the mouth, over the artist's skin --------------------------------------------------
-    upper_seeds = np.unique(nearest_vertex(landmarks[contours["lips_outer_upper"][2:-2]]))
-    lower_seeds = np.unique(nearest_vertex(landmarks[contours["lips_outer_lower"][2:-2]]))
+    # the seeds leave out three landmarks at each mouth corner: where the lips are modelled together, the
+    # outer lower contour's third landmark lies on the line where they meet (MakeHuman: 18 mm from the
+    # midline, level with the upper lip's margin row), and the row up to 4 mm from the midline was nearer
+    # to it than to the upper contour, "lower lip" carried by the jaw (weight 0.97)
+    upper_seeds = np.unique(nearest_vertex(landmarks[contours["lips_outer_upper"][SEED_SKIP:-SEED_SKIP]]))
+    lower_seeds = np.unique(nearest_vertex(landmarks[contours["lips_outer_lower"][SEED_SKIP:-SEED_SKIP]]))
     shared = np.intersect1d(upper_seeds, lower_seeds)
     upper_seeds = np.setdiff1d(upper_seeds, shared)
     lower_seeds = np.setdiff1d(lower_seeds, shared)
