@@ -53,12 +53,14 @@ ACTIVE_REACH = 0.015    # m: muscle and lid influence has faded out here; farthe
 JAW_REACH = 0.080       # m: jaw-carried skin beyond the face fades to the fixed neck over this distance
 JOINT_CLEARANCE = (0.015, 0.045)   # m below the jaw joint over which off-face skin starts following the jaw
 JOINT_BEHIND = (0.005, 0.035)      # m behind the joint over which it stops again (ears, back of the neck)
+SEED_SKIP = 3           # outer lip contour landmarks at each mouth corner that do not seed the side
 MOUTH_REACH = 0.025     # m over the skin from the outer lip contours: where the side of the mouth matters
 MOUTH_REGION = 0.026    # m over the skin from the lip margins: the mouth region (template: 22 mm)
 OPENING_RATIO = 1.8     # path over the skin / straight distance above which there is an opening
 NONE, UPPER, LOWER = 0, 1, 2
 CARRIERS = ("eye_L", "eye_R", "teeth_upper", "teeth_lower", "tongue")   # rigid parts a separate piece can ride
 PART_REACH = 0.008      # m: a piece within this of a rigid part (most of its vertices) rides that part
+LIP_TOUCH = 0.003       # m: lips whose nearest vertices lie this close together (summed) touch
 LINING_LIP = 0.005      # m over the lining from the line where the lips meet: the lips' inner surface
 LINING_PATH = 0.03      # m: longest stretch of that line between two of its vertices
 LINING_SHARE = 0.25     # a "lining" larger than this share of the face is no mouth pocket: left alone
@@ -204,8 +206,12 @@ def transfer_to_mesh(template: HeadTemplate, vertices: np.ndarray, faces: np.nda
         return used_index[tree.query(points)[1]]
 
     # -- the side of the mouth, over the artist's skin --------------------------------------------------
-    upper_seeds = np.unique(nearest_vertex(landmarks[contours["lips_outer_upper"][2:-2]]))
-    lower_seeds = np.unique(nearest_vertex(landmarks[contours["lips_outer_lower"][2:-2]]))
+    # the seeds leave out three landmarks at each mouth corner: where the lips are modelled together, the
+    # outer lower contour's third landmark lies on the line where they meet (MakeHuman: 18 mm from the
+    # midline, level with the upper lip's margin row), and the row up to 4 mm from the midline was nearer
+    # to it than to the upper contour, "lower lip" carried by the jaw (weight 0.97)
+    upper_seeds = np.unique(nearest_vertex(landmarks[contours["lips_outer_upper"][SEED_SKIP:-SEED_SKIP]]))
+    lower_seeds = np.unique(nearest_vertex(landmarks[contours["lips_outer_lower"][SEED_SKIP:-SEED_SKIP]]))
     shared = np.intersect1d(upper_seeds, lower_seeds)
     upper_seeds = np.setdiff1d(upper_seeds, shared)
     lower_seeds = np.setdiff1d(lower_seeds, shared)
@@ -281,19 +287,59 @@ def _separate_shells(template: HeadTemplate, vertices: np.ndarray, graph, used: 
 def _lip_margins(transfer: MeshTransfer, template: HeadTemplate, vertices: np.ndarray, edges: np.ndarray,
                  counts: np.ndarray) -> None:
     """The vertices that must meet when the lips close: the border of the artist's mouth opening (if any)
-    plus, per side, the vertex nearest each node of the template's inner lip contour."""
+    plus, per side, the vertex nearest each node of the template's inner lip contour, or, where the artist's
+    lips touch, the vertices where they meet (:func:`_lip_contact`)."""
     border = np.zeros(len(vertices), bool)
     border[edges[counts == 1].ravel()] = True
-    for name, which in (("lips_inner_upper", UPPER), ("lips_inner_lower", LOWER)):
-        on_side = np.flatnonzero((transfer.side == which) & (transfer.face_weight > 0.5))
-        if len(on_side) == 0:
+    contours = {name: template.skin.vertices[template.skin.contours[name][1:-1]]
+                for name in ("lips_inner_upper", "lips_inner_lower")}
+    sides = {name: np.flatnonzero((transfer.side == which) & (transfer.face_weight > 0.5))
+             for name, which in (("lips_inner_upper", UPPER), ("lips_inner_lower", LOWER))}
+    if any(len(on_side) == 0 for on_side in sides.values()):
+        for name in contours:
             transfer.lip_margins[name] = np.zeros(0, np.int64)
-            continue
+        return
+    trees = {name: cKDTree(vertices[on_side]) for name, on_side in sides.items()}
+    found = _lip_contact(contours, sides, trees, vertices)
+    for name, on_side in sides.items():
         margin = on_side[border[on_side] & (transfer.lip_distance[on_side] < 0.003)]
-        contour = template.skin.vertices[template.skin.contours[name][1:-1]]
-        gap, k = cKDTree(vertices[on_side]).query(contour)
-        margin = np.union1d(margin, on_side[k[gap < 0.003]])
+        gap, k = trees[name].query(contours[name])
+        margin = np.union1d(margin, on_side[k[(gap < 0.003) & ~found["touch_" + name]]])
+        margin = np.union1d(margin, found[name])
         transfer.lip_margins[name] = margin[np.argsort(vertices[margin, 0], kind="stable")]
+
+
+def _lip_contact(contours: dict, sides: dict, trees: dict, vertices: np.ndarray, samples: int = 11) -> dict[str, np.ndarray]:
+    """Where the artist's lips touch: the template's inner lip contours lie where the registered canonical
+    face has them, ~5 mm apart (its mouth is a little open), so on a head modelled with its lips together one
+    of them lies on the front of a lip (MakeHuman: the upper inner contour on the upper lip's red, 5 mm above
+    the line where the lips meet; its African head: the lower one on the lower lip's front). From each
+    contour node towards the other contour at its x, the point both lips come nearest (sum of the distances
+    to the closest upper-side and lower-side vertex) is on that line if the sum is below ``LIP_TOUCH``; its
+    two closest vertices are the margins there (3.1.3: the margins are what meets when the lips close).
+    Returns per contour the margin vertices found and, per node, whether the lips touch there."""
+    names = ("lips_inner_upper", "lips_inner_lower")
+    out = {name: [] for name in names}
+    for name, other in (names, names[::-1]):
+        points, partner = contours[name], contours[other]
+        order = np.argsort(partner[:, 0], kind="stable")
+        towards = np.stack([np.interp(points[:, 0], partner[order, 0], partner[order, axis]) for axis in range(3)], 1)
+        t = np.linspace(0.0, 1.0, samples)
+        line = points[:, None, :] + t[None, :, None] * (towards - points)[:, None, :]
+        flat = line.reshape(-1, 3)
+        dist = {key: trees[key].query(flat) for key in names}
+        cost = (dist[names[0]][0] + dist[names[1]][0]).reshape(len(points), samples)
+        best = np.argmin(cost, axis=1)
+        pick = np.arange(len(points)) * samples + best
+        apart = (vertices[sides[names[0]][dist[names[0]][1][pick]]]
+                 - vertices[sides[names[1]][dist[names[1]][1][pick]]])[:, 1:]
+        touch = np.linalg.norm(apart, axis=1) < LIP_TOUCH
+        for key in names:
+            out[key].append(sides[key][dist[key][1][pick[touch]]])
+        out["touch_" + name] = touch
+    for key in names:
+        out[key] = np.unique(np.concatenate(out[key])).astype(np.int64)
+    return out
 
 
 def _margin_loop(graph, upper: np.ndarray, lower: np.ndarray, corners: np.ndarray) -> np.ndarray:

@@ -225,3 +225,30 @@ def test_fitted_brows_rise_without_the_orbits_roof_holding_them():
     report = audit_shapes(rig, expressions, shapes)
     inverted = {shape: report["rows"][shape][0]["inverted"] for shape in shapes}
     assert not any(inverted.values()), inverted
+
+
+@pytest.mark.parametrize("name", ["makehuman_neutral", "makehuman_african_female_old"])
+def test_fitted_lip_margins_are_where_the_closed_lips_meet(name):
+    """Both MakeHuman heads are modelled with their lips together, but the inner lip landmarks keep the
+    canonical face's ~5.5 mm opening: the margins nearest the template's inner lip contours lay on the front
+    of a lip (the neutral head's upper margin on the upper lip's red, 5.7 mm above the line where the lips
+    meet; the African head's lower margin 5.5 mm down the lower lip's front), so the rig read a closed mouth
+    as open and pressed that lip's red onto the other to close it (``transfer._lip_contact``). The margins
+    now lie where the lips touch: less than 1.5 mm apart at rest."""
+    vertices, faces = _head(name)
+    rig = build_fitted_rig(vertices, faces, seed=0)
+    assert abs(rig.lip_gap()) < 0.0015, rig.lip_gap()
+
+
+def test_fitted_upper_lip_margin_row_stays_with_the_upper_lip():
+    """MakeHuman neutral's lips are modelled together; the outer lower lip contour's third landmark from each
+    corner lay on the line where they meet, level with the upper lip's margin row, and seeded the lower
+    side (``transfer.SEED_SKIP``): the row from 4 mm beside the midline outwards took the lower lip's data
+    (jaw weight 0.97), so closing or moving the jaw dragged the upper lip's edge with it: mouthClose,
+    viseme_PP, jawLeft and jawRight folded 8, 9, 4 and 4 triangles. Now each meets its targets."""
+    vertices, faces = _head("makehuman_neutral")
+    rig = build_fitted_rig(vertices, faces, seed=0)
+    shapes = ("mouthClose", "viseme_PP", "jawLeft", "jawRight")
+    report = audit_shapes(rig, load_expressions("arkit") | load_expressions("visemes"), shapes)
+    failed = {shape: report["rows"][shape][1] for shape in shapes if report["rows"][shape][1]}
+    assert not failed, failed
