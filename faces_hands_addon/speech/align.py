@@ -96,13 +96,16 @@ def align_audio(audio, transcript: str | None = None, *, sample_rate: int | None
     pcm = to_int16(to_analysis_rate(samples, rate)).tobytes()
     transcript_check.refuse_non_speech(pcm)
     duration = len(samples) / rate
-    pitch = track_pitch(samples, rate)
     ps = _pocketsphinx()
     text = transcript if isinstance(transcript, str) else ""
     cleaned, tags = extract_emoticons(text)
     if not any(ch.isalnum() for ch in cleaned):
-        return _recognise_phones(ps, pcm, samples, rate, duration, pitch, text, tags, language)
-    return _force_align(ps, pcm, samples, rate, duration, pitch, text, cleaned, tags, language)
+        return _recognise_phones(ps, pcm, samples, rate, duration, track_pitch(samples, rate), text, tags, language)
+    # the two free phone decodes (confidence reference, recognition) need only the audio: their second
+    # process starts first and runs beside everything else the alignment does, pitch tracking included
+    with phone_loop.PhoneLoops(ps, pcm, [{}, {"lw": transcript_check.RECOGNITION_LW}]) as loops:
+        pitch = track_pitch(samples, rate)
+        return _force_align(ps, pcm, loops, samples, rate, duration, pitch, text, cleaned, tags, language)
 
 
 def _recognise_phones(ps, pcm, samples, rate, duration, pitch, text, tags, language) -> Utterance:
@@ -188,7 +191,7 @@ def _alignment_entries(alignment, word_count: int) -> list[tuple]:
     return entries
 
 
-def _force_align(ps, pcm, samples, rate, duration, pitch, text, cleaned, tags, language) -> Utterance:
+def _force_align(ps, pcm, loops, samples, rate, duration, pitch, text, cleaned, tags, language) -> Utterance:
     decoder = ps.Decoder(lm=None, bestpath=False, loglevel="FATAL", compallsen=True)
     english = language.lower().startswith("en")
     voice = language if language else "en-us"
@@ -218,18 +221,11 @@ def _force_align(ps, pcm, samples, rate, duration, pitch, text, cleaned, tags, l
         warnings.append("not in the dictionary, pronounced by espeak-ng: " + ", ".join(added))
 
     texts = [cleaned[a:b] for a, b in spans]
-    # the two free phone decodes (confidence reference, recognition) run beside the forced passes
-    with phone_loop.PhoneLoops(ps, pcm, [{}, {"lw": transcript_check.RECOGNITION_LW}]) as loops:
-        decoder, fit, soft, free = _checked_alignment(ps, pcm, decoder, keys, decoder_words, texts, loops)
-        decoder.set_alignment()
-        _decode(decoder, pcm)
-        alignment = decoder.get_alignment()
-        if alignment is None:
-            raise UserError("the transcript does not match the audio (phone alignment failed)")
-        entries = _alignment_entries(alignment, len(spans))
-        expected = _expected_durations(cleaned, spans, "en-us" if english else voice)
-        warnings.extend(transcript_check.named_warnings(fit, soft))
-        warnings.extend(_missing_words(pcm, fit, soft, entries, free, loops.result(1), expected))
+    # ``loops``: the two free phone decodes (confidence reference, recognition), beside the forced passes
+    entries, fit, soft, free = _checked_alignment(ps, pcm, decoder, keys, decoder_words, texts, loops)
+    expected = _expected_durations(cleaned, spans, "en-us" if english else voice)
+    warnings.extend(transcript_check.named_warnings(fit, soft))
+    warnings.extend(_missing_words(pcm, fit, soft, entries, free, loops.result(1), expected))
 
     phones, tokens = _tile([entry[:5] for entry in entries], duration)
     token_phones: dict[int, list[int]] = {}
@@ -247,8 +243,9 @@ def _force_align(ps, pcm, samples, rate, duration, pitch, text, cleaned, tags, l
 def _checked_alignment(ps, pcm: bytes, decoder, keys: list[str], decoder_words, texts: list[str], loops):
     """The word-level forced alignment with ``decoder`` (default beams), then wider beams, checked against
     free phone recognition (``loops.result(0)``; ``transcript_check``: refuses a transcript that does not
-    match). Returns the decoder (for the phone pass), the words' fit, the soft transcript's path and the
-    free phone path."""
+    match). The phone pass (``set_alignment``) follows the word pass at once: it needs no free decode, so
+    it runs while the second process is still decoding. Returns the phone alignment (``_alignment_entries``),
+    the words' fit, the soft transcript's path and the free phone path."""
     for beams in _BEAMS:
         if beams:
             decoder = _decoder_with_words(ps, beams, decoder_words)
@@ -258,11 +255,18 @@ def _checked_alignment(ps, pcm: bytes, decoder, keys: list[str], decoder_words, 
             raise UserError(f"pocketsphinx cannot align this transcript ({exc})") from None
         _decode(decoder, pcm)
         if decoder.hyp() is not None:
+            words = phone_loop.segments(decoder)       # the word path, before the phone pass replaces it
+            decoder.set_alignment()
+            _decode(decoder, pcm)
+            alignment = decoder.get_alignment()
+            entries = None if alignment is None else _alignment_entries(alignment, len(texts))
             free = loops.result(0)
-            fit = transcript_check.measure(decoder, free, pcm, texts)
+            fit = transcript_check.measure(decoder, free, pcm, texts, forced=words)
             soft = transcript_check.soft_path(ps, pcm, keys, decoder_words, fit.words, beams)
             transcript_check.judge_with_soft(fit, soft)
-            return decoder, fit, soft, free
+            if entries is None:
+                raise UserError("the transcript does not match the audio (phone alignment failed)")
+            return entries, fit, soft, free
     raise UserError("the transcript does not match the audio (no alignment reaches the end of the "
                     "audio); check the words, or leave the transcript empty for phone recognition")
 

@@ -74,6 +74,15 @@ def _substitution(a: str, b: str) -> float:
     return 0.0 if a == b else (0.6 if _phone_class(a) == _phone_class(b) else 1.0)
 
 
+def _substitutions(rows: list[str], columns: list[str]) -> np.ndarray:
+    """The (rows, columns) matrix of :func:`_substitution`, from each distinct phone's class."""
+    classes = {phone: _phone_class(phone) for phone in {*rows, *columns}}
+    row_class = np.array([classes[p] for p in rows])
+    column_class = np.array([classes[p] for p in columns])
+    same = np.array(rows)[:, None] == np.array(columns)[None, :]
+    return np.where(same, 0.0, np.where(row_class[:, None] == column_class[None, :], 0.6, 1.0))
+
+
 def insertions(recognised: list[str], transcript: list[tuple[str, int]], words: int) -> np.ndarray:
     """Per boundary (after word ``j``, ``j`` in ``0..words-2``): recognised phones the transcript lacks
     there. A weighted edit alignment (substitution 0 for the same phone, 0.6 within a class -- vowels,
@@ -85,7 +94,7 @@ def insertions(recognised: list[str], transcript: list[tuple[str, int]], words: 
     out = np.zeros(max(words - 1, 0))
     if n == 0 or m == 0:
         return out
-    cost = np.array([[_substitution(r, t) for t, _ in transcript] for r in recognised])
+    cost = _substitutions(recognised, [t for t, _ in transcript])
     moves = np.zeros((n + 1, m + 1), np.int8)        # 0 diagonal, 1 insertion (recognised only), 2 deletion
     moves[1:, 0], moves[0, 1:] = 1, 2
     row = np.arange(m + 1, dtype=np.float64)

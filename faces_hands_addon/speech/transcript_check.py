@@ -192,9 +192,10 @@ def is_filler(name: str) -> bool:
     return name.split("(")[0].startswith(("<", "[", "+")) or name.upper() in ("SIL",)
 
 
-def measure(forced_decoder, free_segments, pcm: bytes, texts: list[str]) -> TranscriptFit:
-    """Per transcript word (``texts`` in order) its frames and confidence on the forced path."""
-    forced = segments(forced_decoder)
+def measure(forced_decoder, free_segments, pcm: bytes, texts: list[str], forced=None) -> TranscriptFit:
+    """Per transcript word (``texts`` in order) its frames and confidence on the forced path (``forced``:
+    the decoder's word path, :func:`segments`, when it was read before the decoder ran another pass)."""
+    forced = segments(forced_decoder) if forced is None else forced
     frames = max(forced_decoder.n_frames(), 1)
     loud = loud_frames(pcm, frames)
     uncovered = np.zeros(frames, dtype=bool)
