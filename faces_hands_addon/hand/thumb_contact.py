@@ -36,7 +36,8 @@ started nearer), the first touch is found by bisection and the thumb's DOFs are 
 removed: the fingers stop the thumb as a joint limit does (Eq. 6.7 with Table 6.4: the angle is held at the
 stop and the speed into it dropped). The usual contact resolution then runs from there. A frame whose
 samples travel less than ``SWEPT_STEP`` is checked at its end only, as before (a sample cannot cross a
-15-19 mm contact zone in one such step).
+15-19 mm contact zone in one such step), and so is one that starts farther from every finger than twice its
+largest travel (a margin for the arc a turning sample takes against its chord).
 Deterministic; ``enabled = False`` leaves the muscles alone.
 """
 from __future__ import annotations
@@ -186,9 +187,10 @@ class ThumbContact:
         moved = end[1] - start[1]                       # each thumb sample's travel relative to each finger's
         travel = float(np.sqrt(np.einsum("tfi,tfi->tf", moved, moved).max()))
         steps = int(np.ceil(travel / SWEPT_STEP))
-        if steps <= 1:
+        clearance = start[2] - self.distance
+        if steps <= 1 or float(clearance.min()) > 2.0 * travel:    # too far from the fingers to reach them
             return transforms
-        floor = np.minimum((start[2] - self.distance).min(axis=1), 0.0) - TOLERANCE
+        floor = np.minimum(clearance.min(axis=1), 0.0) - TOLERANCE
         touching = lambda s: np.any(self.gaps(sk.bone_transforms(before + s * (angles - before))) < floor)
         reached = 0.0
         for k in range(1, steps + 1):
