@@ -15,3 +15,10 @@ if not blender_env.extension_dir(USER_DIR).exists():
     sys.exit(f"the extension is not installed in {USER_DIR}; run `make install` (or `make bench`)")
 EXTENSION = blender_env.enable(USER_DIR, quiet=True)  # Blender's start-up chatter stays off the figures
 blender_env.alias_installed_engine()
+
+
+def addon_module(name: str):
+    """The installed extension's module ``name`` (e.g. ``operators.hand.services``): bpy-side code that
+    ``faces_hands_addon`` aliasing does not cover."""
+    import importlib
+    return importlib.import_module(f"{EXTENSION.__name__}.{name}")

@@ -22,7 +22,6 @@ Run: ``.venv/bin/python bench/hand_bulges.py [--size 600x750] [--views grip,palm
 from __future__ import annotations
 
 import argparse
-import importlib
 import sys
 from pathlib import Path
 
@@ -36,10 +35,6 @@ POSES = ("fist", "point", "thumbs_up", "pinch", "spread")
 REGIONS = {"thenar": ("adductor_pollicis", "opponens_pollicis"), "web": ("first_dorsal_interosseus",),
            "hypothenar": ("opponens_digiti_minimi", "flexor_digiti_minimi_brevis", "abductor_digiti_minimi")}
 LEVELS = 20
-
-
-def _module(name: str):
-    return importlib.import_module(f"{_harness.EXTENSION.__name__}.{name}")
 
 
 def node_regions(rig) -> dict[str, np.ndarray]:
@@ -66,9 +61,10 @@ def main() -> int:
     args = parser.parse_args()
     size = tuple(int(v) for v in args.size.split("x"))
     views = args.views.split(",")
-    services, render, sheet = (_module(f"operators.{m}") for m in ("hand.services", "common.render", "hand.sheet"))
+    services, render, sheet = (_harness.addon_module(f"operators.{m}")
+                               for m in ("hand.services", "common.render", "hand.sheet"))
     obj = services.build_hand_object()
-    rig = _module("operators.common.rig_store").get_rig(obj, "hand")
+    rig = _harness.addon_module("operators.common.rig_store").get_rig(obj, "hand")
     folder = Path(args.out_dir) if args.out_dir else None
     if folder:
         folder.mkdir(parents=True, exist_ok=True)

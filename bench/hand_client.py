@@ -41,11 +41,6 @@ import numpy as np  # noqa: E402
 OUT = _harness.ROOT / "out" / "bench" / "hand_client"
 
 
-def _addon(name: str):
-    import importlib
-    return importlib.import_module(f"{_harness.EXTENSION.__name__}.{name}")
-
-
 def make_glb(motion: str, fps: int, path: Path) -> tuple[object, object, dict]:
     """Build, animate, bake and export through the operators; returns (hand object, bake job, wall times)."""
     wall = {}
@@ -56,7 +51,7 @@ def make_glb(motion: str, fps: int, path: Path) -> tuple[object, object, dict]:
     obj = bpy.context.active_object
     wall["build_s"] = time.perf_counter() - started
     assert bpy.ops.faces_hands.animate_hand(motion=motion) == {"FINISHED"}
-    job = _addon("operators.hand.jobs").BakeHandJob(bpy.context, obj)     # the table the operator will sample
+    job = _harness.addon_module("operators.hand.jobs").BakeHandJob(bpy.context, obj)     # the table the operator will sample
     started = time.perf_counter()
     assert bpy.ops.faces_hands.bake_hand() == {"FINISHED"}
     wall["bake_s"] = time.perf_counter() - started

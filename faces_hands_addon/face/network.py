@@ -29,6 +29,7 @@ eyeballs (:mod:`..physics.collision`).
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, fields
+from functools import cached_property
 
 import numpy as np
 
@@ -134,19 +135,19 @@ class SliverTies:
         """Place every apex on its edge (positions, velocities (3, N), in place); once the kernel is loaded,
         in the compiled loop of :mod:`.sliver_kernel` (this numpy code is the reference)."""
         if self.batches and kernel.loaded() and (place := kernel.compiled(sliver_kernel.place_apices)) is not None:
-            place(positions, velocity, *self._packed(), self.PASSES)
+            place(positions, velocity, *self._packed, self.PASSES)
             return
         for _ in range(self.PASSES if self.batches else 0):
             for apex, start, end, share, offset in self.batches:
                 positions[:, apex] = (1.0 - share) * positions[:, start] + share * positions[:, end] + offset
                 velocity[:, apex] = (1.0 - share) * velocity[:, start] + share * velocity[:, end]
 
+    @cached_property
     def _packed(self) -> tuple[np.ndarray, ...]:
-        """The batches concatenated in order (apex, start, end, share, offset (3, T)) for the compiled loop."""
-        if getattr(self, "_flat", None) is None:
-            self._flat = tuple(np.ascontiguousarray(np.concatenate([batch[j] for batch in self.batches], axis=-1))
-                               for j in range(5))
-        return self._flat
+        """The batches concatenated in order (apex, start, end, share, offset (3, T)) for the compiled loop
+        (the batches are fixed once built)."""
+        return tuple(np.ascontiguousarray(np.concatenate([batch[j] for batch in self.batches], axis=-1))
+                     for j in range(5))
 
 
 @dataclass

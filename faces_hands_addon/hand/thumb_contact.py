@@ -63,6 +63,7 @@ STICK = 0.001             # m: a thumb this near its contact distance is touchin
 RELEASE = 0.003           # m: a held thumb stays held within this (the fingers settling under it part by ~0.1 mm)
 SWEPT_STEP = 0.004        # m a thumb or finger sample may travel between two contact checks along a frame's motion
 BISECTIONS = 5
+HELD_ARRAYS = ("thumb_held_angles", "thumb_held_gaps", "thumb_held_pressing")   # the hold, in a saved rig
 
 
 def _points(skeleton: Skeleton, bones: list[int], samples: int) -> tuple[np.ndarray, np.ndarray]:
@@ -131,12 +132,12 @@ class ThumbContact:
         """The sticking hold as arrays named ``thumb_held_*`` (none while the thumb is free), for a saved rig."""
         if self._held is None:
             return {}
-        return dict(zip(("thumb_held_angles", "thumb_held_gaps", "thumb_held_pressing"), self._held))
+        return dict(zip(HELD_ARRAYS, self._held))
 
     def restore(self, arrays: dict[str, np.ndarray]) -> None:
         """Take back a hold saved by :meth:`state` (free when ``arrays`` holds none)."""
-        names = ("thumb_held_angles", "thumb_held_gaps", "thumb_held_pressing")
-        self._held = tuple(np.asarray(arrays[n], np.float64) for n in names) if names[0] in arrays else None
+        self._held = (tuple(np.asarray(arrays[n], np.float64) for n in HELD_ARRAYS) if HELD_ARRAYS[0] in arrays
+                      else None)
 
     def _axes(self, transforms: np.ndarray, angles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """World axes (D, 3) of the DOFs (signed like them; a joint turns ``F Rx Ry Rz F^T``, :mod:`.skeleton`)
