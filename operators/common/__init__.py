@@ -17,4 +17,5 @@
 ``render``      headless Workbench renders and PNG files
 ``blendfile``   opening and saving .blend files for the command line
 ``timing``      the scene's frame rate
+``materials``   materials with shader nodes on every Blender version
 """

@@ -9,6 +9,7 @@ import bpy
 import numpy as np
 
 from ..common import controls
+from ..common.materials import enable_nodes
 from ..common.meshes import mesh_from_arrays
 from ..common.rig_store import PART_ROLE, parts, store_rig
 from ...faces_hands_addon.face.appearance import skin_colours
@@ -25,8 +26,7 @@ def _material(name: str, colour, roughness=0.5, subsurface=0.0):
     mat = bpy.data.materials.get(name)
     if mat is None:
         mat = bpy.data.materials.new(name)
-        if bpy.app.version < (5, 0, 0):
-            mat.use_nodes = True
+        enable_nodes(mat)
         bsdf = mat.node_tree.nodes.get("Principled BSDF")
         if bsdf is not None:
             bsdf.inputs["Base Color"].default_value = (*colour, 1.0)

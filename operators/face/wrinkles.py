@@ -14,6 +14,7 @@ import numpy as np
 
 from ...faces_hands_addon.anim.layers import weighted_driver
 from ..common import controls
+from ..common.materials import enable_nodes
 
 #: region -> (wave direction in object space, furrow spacing in metres, bump strength at full contraction)
 PATTERNS = {"forehead": ("Z", 0.03, 1.4), "brow_furrow": ("X", 0.014, 0.8), "nose_bridge": ("Z", 0.01, 0.5)}
@@ -48,8 +49,7 @@ def setup_wrinkle_material(obj, masks: dict[str, np.ndarray], drivers_by_region:
     base = obj.data.materials[0] if obj.data.materials else None
     mat = base.copy() if base is not None else bpy.data.materials.new(f"{obj.name} Skin")
     mat.name = f"{obj.name} Skin"
-    if bpy.app.version < (5, 0, 0):
-        mat.use_nodes = True
+    enable_nodes(mat)
     if obj.data.materials:
         obj.data.materials[0] = mat
     else:

@@ -17,6 +17,7 @@ from mathutils import Matrix, Vector
 
 from ...faces_hands_addon.hand.bake import bone_basis, unskinned
 from ..common import controls
+from ..common.materials import enable_nodes
 from ..common.meshes import mesh_from_arrays
 from ..common.poses import simulation_key
 from ..common.rig_store import PART_ROLE, parts, store_rig
@@ -36,8 +37,7 @@ def _material(name: str, colour):
     if mat is None:
         mat = bpy.data.materials.new(name)
         mat.diffuse_color = (*colour, 1.0)
-        if bpy.app.version < (5, 0, 0):
-            mat.use_nodes = True
+        enable_nodes(mat)
         bsdf = mat.node_tree.nodes.get("Principled BSDF") if mat.node_tree else None
         if bsdf is not None:
             bsdf.inputs["Base Color"].default_value = (*colour, 1.0)

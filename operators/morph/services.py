@@ -17,6 +17,7 @@ import numpy as np
 from ...faces_hands_addon.core.errors import UserError
 from ...faces_hands_addon.morph.editing import EditFace, face_from_state
 from ...faces_hands_addon.morph.segments import hierarchy_order
+from ..common.materials import enable_nodes
 from ..common.meshes import mesh_from_arrays, object_from_mesh
 
 __all__ = ["MORPH_MARKER", "DEFAULT", "model_for", "create_face_object", "face_of", "morph_object",
@@ -64,7 +65,7 @@ def _material(name: str):
     material = bpy.data.materials.get(name)
     if material is None:
         material = bpy.data.materials.new(name)
-        material.use_nodes = True
+        enable_nodes(material)
         nodes = material.node_tree.nodes
         shader = nodes.get("Principled BSDF")
         attribute = nodes.new("ShaderNodeAttribute")

@@ -144,3 +144,18 @@ def test_export_frame_range_scale_and_selected_parts(bpy_clean, tmp_path):
     assert any(n.get("scale", [1, 1, 1])[0] == pytest.approx(100.0) for n in doc["nodes"])
     assert (scene.frame_start, scene.frame_end) == (1, 20)
     assert [o.name for o in bpy.context.view_layer.objects if o.select_get()] == [rig.name]
+
+
+def test_building_rigs_and_faces_uses_no_api_blender_deprecates(bpy_clean):
+    """The face rig (its materials and wrinkle material), the hand rig and a morph face are built without
+    touching anything Blender has deprecated (on 5.x ``Material.use_nodes`` warns that 6.0 removes it)."""
+    import warnings
+    bpy = bpy_clean
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert bpy.ops.faces_hands.build_face_rig() == {"FINISHED"}
+        assert bpy.ops.faces_hands.build_hand_rig() == {"FINISHED"}
+        assert bpy.ops.faces_hands.morph_new_face() == {"FINISHED"}
+    deprecated = sorted({str(w.message) for w in caught if issubclass(w.category, DeprecationWarning)
+                         and "Blender" in str(w.message)})
+    assert not deprecated, deprecated
