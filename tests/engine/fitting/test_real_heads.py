@@ -213,12 +213,15 @@ def test_fitted_lid_skin_by_the_canthus_does_not_turn_past_it(name, shape):
     assert report["rows"][shape][0]["inverted"] == 0, report["rows"][shape][1]
 
 
-def test_fitted_brows_rise_without_the_orbits_roof_holding_them():
+@pytest.mark.parametrize("name", ["soma", "makehuman_neutral"])
+def test_fitted_brows_rise_without_the_orbits_roof_holding_them(name):
     """On SOMA the closest skull point of the lower brow's skin is the orbit's roof 5 mm above it, facing
     down: the skull guard's plane there held those nodes down when the brow rose, while their neighbours
     (not guarded: a little lid weight) rose 8 mm, and the skin between folded. On a fitted head the skull
-    guard only holds skin that lies over its bone (``network.OVER_BONE``): these shapes fold no triangle."""
-    vertices, faces = _head("soma")
+    guard only holds skin that lies over its bone (``network.OVER_BONE``), and not skin hanging below a
+    ledge (``network.LEDGE_DOWN``: MakeHuman neutral's outer brow node 171, bone normal z -0.98, skin
+    normal . bone normal 0.31, held browOuterUpRight and surprise to 4 folded triangles each)."""
+    vertices, faces = _head(name)
     rig = build_fitted_rig(vertices, faces, seed=0)
     expressions = {**load_expressions("arkit"), **load_expressions("named")}
     shapes = ("browOuterUpLeft", "browOuterUpRight", "surprise")
