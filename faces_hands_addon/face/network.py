@@ -95,7 +95,9 @@ class SliverTies:
     at its rest offset from the point of the edge next to it, like welded vertices. An apex may be tied in
     several slivers and be another's edge end: the ties are placed in ``PASSES`` sweeps over batches in which
     no node occurs twice (as position constraints are relaxed one after another). Only ``free`` apices are
-    tied: not kinematic nodes, nor the mouth's, whose lip contact and teeth guard place them."""
+    tied: not kinematic nodes, nor the lips' (upper, lower and inner lip), whose lip contact and teeth guard
+    place them; the rest of the mouth region is tied (a sliver at MakeHuman neutral's commissure turned over
+    in mouthFrown)."""
     batches: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]]
     PASSES = 2
 
@@ -355,6 +357,7 @@ def build_network(template: HeadTemplate, material: SkinMaterial | None = None,
     network = SpringNetwork(template.skin.vertices, masses, springs, attachments, kinematic=template.skin.kinematic)
     integrator = LeapfrogIntegrator(network, damping, max_substeps=max_substeps)
     skin = template.skin
-    slivers = SliverTies.build(skin.vertices, skin.faces, ~network.kinematic & ~skin.mouth_region)
+    lips = skin.group("upper_lip") | skin.group("lower_lip") | skin.group("lip_inner")
+    slivers = SliverTies.build(skin.vertices, skin.faces, ~network.kinematic & ~lips)
     return FaceNetwork(network, integrator, _bone_guard(template, lid_weight), _teeth_guard(template),
                        _eye_guards(template), offset, material, slivers)

@@ -255,3 +255,16 @@ def test_fitted_upper_lip_margin_row_stays_with_the_upper_lip():
     report = audit_shapes(rig, load_expressions("arkit") | load_expressions("visemes"), shapes)
     failed = {shape: report["rows"][shape][1] for shape in shapes if report["rows"][shape][1]}
     assert not failed, failed
+
+
+def test_fitted_mouth_corner_slivers_keep_their_shape():
+    """MakeHuman neutral's commissure has a small triangle (x 29.7 mm, edges 0.8 / 1.6 / 1.0 mm) among
+    slivers whose nodes lie in the mouth region, which ``SliverTies`` used to leave untied entirely, and
+    mouthFrownLeft/Right turned it over (1 inverted each). Only the lip nodes (which lip contact and the
+    teeth guard place) are left untied now: both frowns meet their targets."""
+    vertices, faces = _head("makehuman_neutral")
+    rig = build_fitted_rig(vertices, faces, seed=0)
+    shapes = ("mouthFrownLeft", "mouthFrownRight")
+    report = audit_shapes(rig, load_expressions("arkit"), shapes)
+    failed = {shape: report["rows"][shape][1] for shape in shapes if report["rows"][shape][1]}
+    assert not failed, failed
