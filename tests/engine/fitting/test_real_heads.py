@@ -12,7 +12,8 @@ import pytest
 
 from faces_hands_addon.face.audit_targets import audit_shapes
 from faces_hands_addon.face.expressions import load_expressions
-from faces_hands_addon.face.fitted import build_fitted_rig
+from faces_hands_addon.face.fitted import build_fitted_rig, fit_head
+from faces_hands_addon.face.skin import LIP_OVERLAP
 from faces_hands_addon.fitting import locate_landmarks
 from faces_hands_addon.fitting.template import NOSE_TIP, face_template
 
@@ -268,3 +269,21 @@ def test_fitted_mouth_corner_slivers_keep_their_shape():
     report = audit_shapes(rig, load_expressions("arkit"), shapes)
     failed = {shape: report["rows"][shape][1] for shape in shapes if report["rows"][shape][1]}
     assert not failed, failed
+
+
+@pytest.mark.parametrize("name", ["makehuman_neutral", "makehuman_african_female_old"])
+def test_fitted_oris_closes_only_the_meshs_own_rest_opening(name):
+    """The orbicularis oris first closes the rest lips' opening (``MuscleSystem.rest_closing``). On a fitted
+    head that opening was the landmarks' (the canonical face's parted lips: up to 5.7 mm of closing on the
+    African head, whose lips touch), so mouthClose, PP and press pressed the lips into each other. No oris
+    point now closes more than the mesh's own inner-lip opening at its x (plus the closure's overlap)."""
+    vertices, faces = _head(name)
+    head = fit_head(vertices, faces, seed=0)
+    muscles, skin = head.template.muscles, head.template.skin
+    upper, lower = (np.asarray(skin.contours[k]) for k in ("lips_inner_upper", "lips_inner_lower"))
+    upper, lower = upper[np.argsort(skin.vertices[upper, 0])], lower[np.argsort(skin.vertices[lower, 0])]
+    x = muscles.rest[:, 0]
+    opening = (np.interp(x, skin.vertices[upper, 0], skin.vertices[upper, 2])
+               - np.interp(x, skin.vertices[lower, 0], skin.vertices[lower, 2]))
+    excess = np.abs(muscles.rest_closing[:, 2]) - (np.maximum(opening, 0.0) + LIP_OVERLAP)
+    assert excess.max() < 1e-6, f"{excess.max() * 1000:.2f} mm more than the mesh's opening"
