@@ -170,6 +170,28 @@ def _spread_over_the_brows(attachment, skin: SkinMesh, lip_distance: np.ndarray)
     attachment.smoothing_passes = BROW_SPREAD_PASSES
 
 
+def _inner_lip_gap(points: np.ndarray, upper: np.ndarray, lower: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Height of the opening between two inner lip contours (node ids into ``points``) at each ``x``."""
+    upper, lower = upper[np.argsort(points[upper, 0])], lower[np.argsort(points[lower, 0])]
+    return np.interp(x, points[upper, 0], points[upper, 2]) - np.interp(x, points[lower, 0], points[lower, 2])
+
+
+def _rest_closing_of_the_mesh(muscles, skin: SkinMesh, landmarks: np.ndarray, contours: dict) -> None:
+    """The orbicularis oris closes the mesh's own rest opening first, not the landmarks' (3.1.2: the rest
+    lips are the artist's): ``rest_closing`` was set from the landmarks' inner lip contours, which keep the
+    canonical face's parted lips (~5 mm) where an artist models them together (MakeHuman: 0.8 mm apart),
+    so the oris pressed the lips into each other. Each point's closing is scaled by the mesh's opening
+    over the landmarks' at its x (at most 1)."""
+    names = ("lips_inner_upper", "lips_inner_lower")
+    if not np.any(muscles.rest_closing) or not all(k in skin.contours for k in names):
+        return
+    x = muscles.rest[:, 0]
+    said = _inner_lip_gap(landmarks, *(np.asarray(contours[k]) for k in names), x)
+    real = _inner_lip_gap(skin.vertices, *(np.asarray(skin.contours[k]) for k in names), x)
+    scale = np.where(said > 1e-4, np.clip(real / np.maximum(said, 1e-4), 0.0, 1.0), 1.0)
+    muscles.set_rest_closing(muscles.rest_closing * scale[:, None])
+
+
 def network_template(source: HeadTemplate, transfer: MeshTransfer, vertices: np.ndarray, faces: np.ndarray,
                      landmarks: np.ndarray):
     """The template the spring network is built from (module docstring), the mesh vertex ids of its nodes
@@ -196,6 +218,7 @@ def network_template(source: HeadTemplate, transfer: MeshTransfer, vertices: np.
     organs = OrganRecord(dict(skin.eye_centres), source.organs.eye_radius,
                          _lid_rigs(source, transfer, nodes, landmarks, skin, weight), parts,
                          source.organs.tongue_pivot, source.organs.arches)
+    _rest_closing_of_the_mesh(source.muscles, skin, landmarks, source.inputs.contours)
     template = HeadTemplate(source.resolution, source.inputs, record, source.bones, source.muscles, attachment,
                             organs)
     return template, nodes_index, passive

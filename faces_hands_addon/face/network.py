@@ -50,6 +50,7 @@ COMPRESSION_SOFTNESS = 0.25   # skin yields under compression (a membrane withou
 CORNER_RADIUS, CORNER_GAIN = 0.0035, 40.0    # m around each mouth corner (the modiolus' knot); its attachment gain
 CANTHUS_GAIN = 40.0          # attachment gain on a canthus (the canthal tendons tie it to the orbit), as CORNER_GAIN
 OVER_BONE = 0.3             # fitted heads: the skull guard holds skin whose bone normal faces its own this much
+LEDGE_DOWN = 0.9             # fitted heads: a bone normal this far down is the underside of a ledge (orbit roof)
 SLIVER_HEIGHT = 0.0003       # m: a triangle corner this close to its opposite edge follows that edge (SliverTies)
 
 #: documented UI ranges of the material knobs (values outside are clamped)
@@ -94,7 +95,9 @@ class SliverTies:
     at its rest offset from the point of the edge next to it, like welded vertices. An apex may be tied in
     several slivers and be another's edge end: the ties are placed in ``PASSES`` sweeps over batches in which
     no node occurs twice (as position constraints are relaxed one after another). Only ``free`` apices are
-    tied: not kinematic nodes, nor the mouth's, whose lip contact and teeth guard place them."""
+    tied: not kinematic nodes, nor the lips' (upper, lower and inner lip), whose lip contact and teeth guard
+    place them; the rest of the mouth region is tied (a sliver at MakeHuman neutral's commissure turned over
+    in mouthFrown)."""
     batches: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]]
     PASSES = 2
 
@@ -268,6 +271,9 @@ def _bone_guard(template: HeadTemplate, lid_weight: np.ndarray) -> BoneHalfSpace
         # opening of the transferred skull (SOMA's lower brow: the orbit's roof, 5 mm above it, facing down),
         # not on the bone; that plane held the brow down when it rose (browOuterUp folded)
         guarded &= np.einsum("ij,ij->i", skin.normals, anchoring.bone_normal) > OVER_BONE
+        # skin facing forward or sideways whose closest bone faces down hangs below a ledge (MakeHuman's
+        # brow under the orbit's roof, bone normal z -0.98): rising, it slides over the rim, not into it
+        guarded &= ~((anchoring.bone_normal[:, 2] < -LEDGE_DOWN) & (skin.normals[:, 2] > -0.5))
     index = np.flatnonzero(guarded)
     clearance = np.minimum(0.0015, 0.5 * plane_height[index])
     guard = BoneHalfSpaceGuard(index, anchoring.bone_point[index].T, anchoring.bone_normal[index].T,
@@ -351,6 +357,7 @@ def build_network(template: HeadTemplate, material: SkinMaterial | None = None,
     network = SpringNetwork(template.skin.vertices, masses, springs, attachments, kinematic=template.skin.kinematic)
     integrator = LeapfrogIntegrator(network, damping, max_substeps=max_substeps)
     skin = template.skin
-    slivers = SliverTies.build(skin.vertices, skin.faces, ~network.kinematic & ~skin.mouth_region)
+    lips = skin.group("upper_lip") | skin.group("lower_lip") | skin.group("lip_inner")
+    slivers = SliverTies.build(skin.vertices, skin.faces, ~network.kinematic & ~lips)
     return FaceNetwork(network, integrator, _bone_guard(template, lid_weight), _teeth_guard(template),
                        _eye_guards(template), offset, material, slivers)

@@ -12,7 +12,8 @@ import pytest
 
 from faces_hands_addon.face.audit_targets import audit_shapes
 from faces_hands_addon.face.expressions import load_expressions
-from faces_hands_addon.face.fitted import build_fitted_rig
+from faces_hands_addon.face.fitted import build_fitted_rig, fit_head
+from faces_hands_addon.face.skin import LIP_OVERLAP
 from faces_hands_addon.fitting import locate_landmarks
 from faces_hands_addon.fitting.template import NOSE_TIP, face_template
 
@@ -213,12 +214,15 @@ def test_fitted_lid_skin_by_the_canthus_does_not_turn_past_it(name, shape):
     assert report["rows"][shape][0]["inverted"] == 0, report["rows"][shape][1]
 
 
-def test_fitted_brows_rise_without_the_orbits_roof_holding_them():
+@pytest.mark.parametrize("name", ["soma", "makehuman_neutral"])
+def test_fitted_brows_rise_without_the_orbits_roof_holding_them(name):
     """On SOMA the closest skull point of the lower brow's skin is the orbit's roof 5 mm above it, facing
     down: the skull guard's plane there held those nodes down when the brow rose, while their neighbours
     (not guarded: a little lid weight) rose 8 mm, and the skin between folded. On a fitted head the skull
-    guard only holds skin that lies over its bone (``network.OVER_BONE``): these shapes fold no triangle."""
-    vertices, faces = _head("soma")
+    guard only holds skin that lies over its bone (``network.OVER_BONE``), and not skin hanging below a
+    ledge (``network.LEDGE_DOWN``: MakeHuman neutral's outer brow node 171, bone normal z -0.98, skin
+    normal . bone normal 0.31, held browOuterUpRight and surprise to 4 folded triangles each)."""
+    vertices, faces = _head(name)
     rig = build_fitted_rig(vertices, faces, seed=0)
     expressions = {**load_expressions("arkit"), **load_expressions("named")}
     shapes = ("browOuterUpLeft", "browOuterUpRight", "surprise")
@@ -252,3 +256,34 @@ def test_fitted_upper_lip_margin_row_stays_with_the_upper_lip():
     report = audit_shapes(rig, load_expressions("arkit") | load_expressions("visemes"), shapes)
     failed = {shape: report["rows"][shape][1] for shape in shapes if report["rows"][shape][1]}
     assert not failed, failed
+
+
+def test_fitted_mouth_corner_slivers_keep_their_shape():
+    """MakeHuman neutral's commissure has a small triangle (x 29.7 mm, edges 0.8 / 1.6 / 1.0 mm) among
+    slivers whose nodes lie in the mouth region, which ``SliverTies`` used to leave untied entirely, and
+    mouthFrownLeft/Right turned it over (1 inverted each). Only the lip nodes (which lip contact and the
+    teeth guard place) are left untied now: both frowns meet their targets."""
+    vertices, faces = _head("makehuman_neutral")
+    rig = build_fitted_rig(vertices, faces, seed=0)
+    shapes = ("mouthFrownLeft", "mouthFrownRight")
+    report = audit_shapes(rig, load_expressions("arkit"), shapes)
+    failed = {shape: report["rows"][shape][1] for shape in shapes if report["rows"][shape][1]}
+    assert not failed, failed
+
+
+@pytest.mark.parametrize("name", ["makehuman_neutral", "makehuman_african_female_old"])
+def test_fitted_oris_closes_only_the_meshs_own_rest_opening(name):
+    """The orbicularis oris first closes the rest lips' opening (``MuscleSystem.rest_closing``). On a fitted
+    head that opening was the landmarks' (the canonical face's parted lips: up to 5.7 mm of closing on the
+    African head, whose lips touch), so mouthClose, PP and press pressed the lips into each other. No oris
+    point now closes more than the mesh's own inner-lip opening at its x (plus the closure's overlap)."""
+    vertices, faces = _head(name)
+    head = fit_head(vertices, faces, seed=0)
+    muscles, skin = head.template.muscles, head.template.skin
+    upper, lower = (np.asarray(skin.contours[k]) for k in ("lips_inner_upper", "lips_inner_lower"))
+    upper, lower = upper[np.argsort(skin.vertices[upper, 0])], lower[np.argsort(skin.vertices[lower, 0])]
+    x = muscles.rest[:, 0]
+    opening = (np.interp(x, skin.vertices[upper, 0], skin.vertices[upper, 2])
+               - np.interp(x, skin.vertices[lower, 0], skin.vertices[lower, 2]))
+    excess = np.abs(muscles.rest_closing[:, 2]) - (np.maximum(opening, 0.0) + LIP_OVERLAP)
+    assert excess.max() < 1e-6, f"{excess.max() * 1000:.2f} mm more than the mesh's opening"
