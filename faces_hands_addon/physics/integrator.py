@@ -126,6 +126,7 @@ class LeapfrogIntegrator:
         self._accel = np.empty_like(network.positions)
         self._factor_cache = None
         self._spring_scratch = None          # the fused kernel's per-spring scratch (diff, scale)
+        self._kernel_index = None            # the fused kernel's int32 spring/attachment indices, see _indices
         #: "auto" (the fused kernel of .kernel for networks where it pays), "numba" (it whenever numba is
         #: importable) or "numpy" (the reference path)
         self.backend = "auto"
@@ -136,7 +137,7 @@ class LeapfrogIntegrator:
         self._factor_cache = None
         self._free = (~self.network.kinematic).astype(np.float64)
         self._inverse_mass = self._free / self.network.masses
-        self._no_index = np.zeros(0, np.int64)
+        self._no_index = np.zeros(0, np.int32)
         self.max_substep = stable_time_step(self.network, self.damping, self.safety)
         free = ~self.network.kinematic
         self._eigen = float(np.max(gershgorin_eigen_bound(self.network)[free])) if np.any(free) else 0.0
@@ -275,13 +276,14 @@ class LeapfrogIntegrator:
         else:
             start_pull = delta_pull = empty3
         if driven is not None:
-            kin_index = np.flatnonzero(net.kinematic).astype(np.int64)      # as the numpy path reads them
+            kin_index = np.flatnonzero(net.kinematic).astype(np.int32)      # as the numpy path reads them
             delta_driven = np.ascontiguousarray(np.asarray(driven, np.float64)[:, kin_index] - start_driven)
             start_driven = np.ascontiguousarray(start_driven)
         else:
             kin_index, start_driven, delta_driven = self._no_index, empty3, empty3
         if self._spring_scratch is None or self._spring_scratch[1].shape[0] != sp.count:
             self._spring_scratch = (np.empty((3, sp.count)), np.empty(sp.count))
+        start, end, att_node = self._indices()
         index = 1
         while index <= substeps:
             run_end = min(substeps, ((index - 1) // every + 1) * every) if constraint is not None else substeps
@@ -289,8 +291,8 @@ class LeapfrogIntegrator:
                 run_end = index                      # the Euler start has its own factors
             inverse_mass, decay, kick = self._factors(dt)
             self.started = True
-            compiled(net.positions, self.velocity, net.force, sp.start, sp.end, sp.rest, sp.k_soft, net._knee,
-                     net._k_extra, net._k_yield, net._has_yield, net._min_length, att.node, net._att_two_c,
+            compiled(net.positions, self.velocity, net.force, start, end, sp.rest, sp.k_soft, net._knee,
+                     net._k_extra, net._k_yield, net._has_yield, net._min_length, att_node, net._att_two_c,
                      net.attachment_pull, start_pull, delta_pull, fast, kin_index, start_driven,
                      delta_driven, driven is not None, inverse_mass, decay, kick, self._free, dt, index,
                      run_end - index + 1, substeps, *self._spring_scratch)
@@ -299,6 +301,17 @@ class LeapfrogIntegrator:
             if constraint is not None and (run_end % every == 0 or run_end == substeps):
                 constraint(net.positions, self.velocity, run_end / substeps)
             index = run_end + 1
+
+    def _indices(self):
+        """The springs' ``start``/``end`` and the attachments' ``node`` as int32 for the fused kernel (half
+        the bytes its gathers and scatters stream; same values), rebuilt whenever the network's arrays are
+        replaced."""
+        sp, att = self.network.springs, self.network.attachments
+        cached = self._kernel_index
+        if cached is None or cached[0] is not sp.start or cached[1] is not sp.end or cached[2] is not att.node:
+            self._kernel_index = cached = (sp.start, sp.end, att.node,
+                                           *(np.ascontiguousarray(a, np.int32) for a in (sp.start, sp.end, att.node)))
+        return cached[3:]
 
     def kinetic_energy(self) -> float:
         masses = self.network.masses * self.mass_scale
