@@ -98,6 +98,13 @@ def stable_time_step(network: SpringNetwork, damping: np.ndarray, safety: float 
     return low
 
 
+def _held(att, anchor: np.ndarray | None, mirror: np.ndarray | None) -> bool:
+    """Are the frame's attachment targets where the attachments already are (a settle, a held pose)? Then
+    nothing needs interpolating over the substeps: every interpolated value would equal the current one."""
+    return ((anchor is None or np.array_equal(anchor, att.anchor))
+            and (mirror is None or np.array_equal(mirror, att.mirror)))
+
+
 class LeapfrogIntegrator:
     """Euler first step, then leapfrog Verlet with midpoint damping (3.1.2), substepped by the guard.
 
@@ -215,9 +222,10 @@ class LeapfrogIntegrator:
             self.velocity *= math.sqrt(self.mass_scale / scale)      # keeps the kinetic energy
             self.mass_scale = scale
         backup_x = net.positions.copy()
-        moving = anchor is not None or mirror is not None
-        end_anchor = att.anchor.copy() if anchor is None else np.asarray(anchor, np.float64)
-        end_mirror = att.mirror.copy() if mirror is None else np.asarray(mirror, np.float64)
+        moving = (anchor is not None or mirror is not None) and not _held(att, anchor, mirror)
+        if moving:
+            end_anchor = att.anchor.copy() if anchor is None else np.asarray(anchor, np.float64)
+            end_mirror = att.mirror.copy() if mirror is None else np.asarray(mirror, np.float64)
         fast = moving and net.zero_rest_attachments
         if fast:
             start_pull = net.attachment_pull.copy()
