@@ -292,7 +292,7 @@ class FaceRig:
         x = self.face.network.positions
         previous, moved = x.copy(), np.empty_like(x)
         for frame in range(frames):
-            self._advance(dt)
+            self.step_frame(dt)                # (a fitted rig also moves the vertices beyond the face)
             if frame >= 2 and float(np.abs(np.subtract(x, previous, out=moved), out=moved).max()) < tolerance * dt:
                 break
             previous[...] = x
