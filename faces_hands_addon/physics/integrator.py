@@ -98,6 +98,13 @@ def stable_time_step(network: SpringNetwork, damping: np.ndarray, safety: float 
     return low
 
 
+def _held(att, anchor: np.ndarray | None, mirror: np.ndarray | None) -> bool:
+    """Are the frame's attachment targets where the attachments already are (a settle, a held pose)? Then
+    nothing needs interpolating over the substeps: every interpolated value would equal the current one."""
+    return ((anchor is None or np.array_equal(anchor, att.anchor))
+            and (mirror is None or np.array_equal(mirror, att.mirror)))
+
+
 class LeapfrogIntegrator:
     """Euler first step, then leapfrog Verlet with midpoint damping (3.1.2), substepped by the guard.
 
@@ -126,6 +133,7 @@ class LeapfrogIntegrator:
         self._accel = np.empty_like(network.positions)
         self._factor_cache = None
         self._spring_scratch = None          # the fused kernel's per-spring scratch (diff, scale)
+        self._kernel_index = None            # the fused kernel's int32 spring/attachment indices, see _indices
         #: "auto" (the fused kernel of .kernel for networks where it pays), "numba" (it whenever numba is
         #: importable) or "numpy" (the reference path)
         self.backend = "auto"
@@ -136,7 +144,7 @@ class LeapfrogIntegrator:
         self._factor_cache = None
         self._free = (~self.network.kinematic).astype(np.float64)
         self._inverse_mass = self._free / self.network.masses
-        self._no_index = np.zeros(0, np.int64)
+        self._no_index = np.zeros(0, np.int32)
         self.max_substep = stable_time_step(self.network, self.damping, self.safety)
         free = ~self.network.kinematic
         self._eigen = float(np.max(gershgorin_eigen_bound(self.network)[free])) if np.any(free) else 0.0
@@ -214,9 +222,10 @@ class LeapfrogIntegrator:
             self.velocity *= math.sqrt(self.mass_scale / scale)      # keeps the kinetic energy
             self.mass_scale = scale
         backup_x = net.positions.copy()
-        moving = anchor is not None or mirror is not None
-        end_anchor = att.anchor.copy() if anchor is None else np.asarray(anchor, np.float64)
-        end_mirror = att.mirror.copy() if mirror is None else np.asarray(mirror, np.float64)
+        moving = (anchor is not None or mirror is not None) and not _held(att, anchor, mirror)
+        if moving:
+            end_anchor = att.anchor.copy() if anchor is None else np.asarray(anchor, np.float64)
+            end_mirror = att.mirror.copy() if mirror is None else np.asarray(mirror, np.float64)
         fast = moving and net.zero_rest_attachments
         if fast:
             start_pull = net.attachment_pull.copy()
@@ -275,13 +284,14 @@ class LeapfrogIntegrator:
         else:
             start_pull = delta_pull = empty3
         if driven is not None:
-            kin_index = np.flatnonzero(net.kinematic).astype(np.int64)      # as the numpy path reads them
+            kin_index = np.flatnonzero(net.kinematic).astype(np.int32)      # as the numpy path reads them
             delta_driven = np.ascontiguousarray(np.asarray(driven, np.float64)[:, kin_index] - start_driven)
             start_driven = np.ascontiguousarray(start_driven)
         else:
             kin_index, start_driven, delta_driven = self._no_index, empty3, empty3
         if self._spring_scratch is None or self._spring_scratch[1].shape[0] != sp.count:
             self._spring_scratch = (np.empty((3, sp.count)), np.empty(sp.count))
+        start, end, att_node = self._indices()
         index = 1
         while index <= substeps:
             run_end = min(substeps, ((index - 1) // every + 1) * every) if constraint is not None else substeps
@@ -289,8 +299,8 @@ class LeapfrogIntegrator:
                 run_end = index                      # the Euler start has its own factors
             inverse_mass, decay, kick = self._factors(dt)
             self.started = True
-            compiled(net.positions, self.velocity, net.force, sp.start, sp.end, sp.rest, sp.k_soft, net._knee,
-                     net._k_extra, net._k_yield, net._has_yield, net._min_length, att.node, net._att_two_c,
+            compiled(net.positions, self.velocity, net.force, start, end, sp.rest, sp.k_soft, net._knee,
+                     net._k_extra, net._k_yield, net._has_yield, net._min_length, att_node, net._att_two_c,
                      net.attachment_pull, start_pull, delta_pull, fast, kin_index, start_driven,
                      delta_driven, driven is not None, inverse_mass, decay, kick, self._free, dt, index,
                      run_end - index + 1, substeps, *self._spring_scratch)
@@ -299,6 +309,17 @@ class LeapfrogIntegrator:
             if constraint is not None and (run_end % every == 0 or run_end == substeps):
                 constraint(net.positions, self.velocity, run_end / substeps)
             index = run_end + 1
+
+    def _indices(self):
+        """The springs' ``start``/``end`` and the attachments' ``node`` as int32 for the fused kernel (half
+        the bytes its gathers and scatters stream; same values), rebuilt whenever the network's arrays are
+        replaced."""
+        sp, att = self.network.springs, self.network.attachments
+        cached = self._kernel_index
+        if cached is None or cached[0] is not sp.start or cached[1] is not sp.end or cached[2] is not att.node:
+            self._kernel_index = cached = (sp.start, sp.end, att.node,
+                                           *(np.ascontiguousarray(a, np.int32) for a in (sp.start, sp.end, att.node)))
+        return cached[3:]
 
     def kinetic_energy(self) -> float:
         masses = self.network.masses * self.mass_scale

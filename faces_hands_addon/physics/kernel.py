@@ -298,9 +298,10 @@ def _warm_up(compiled) -> None:
     f3 = np.zeros((3, 2))
     one = np.zeros(2)
     index = np.zeros(1, np.int64)
-    compiled(f3.copy(), f3.copy(), f3.copy(), index, index + 1, one[:1], one[:1], one[:1], one[:1], one[:1],
-             False, one[:1] + 1.0, np.zeros(0, np.int64), np.zeros(0), np.zeros((3, 0)), np.zeros((3, 0)),
-             np.zeros((3, 0)), False, np.zeros(0, np.int64), np.zeros((3, 0)), np.zeros((3, 0)), False,
+    small = np.zeros(1, np.int32)               # the integrator passes its node indices as int32
+    compiled(f3.copy(), f3.copy(), f3.copy(), small, small + 1, one[:1], one[:1], one[:1], one[:1], one[:1],
+             False, one[:1] + 1.0, np.zeros(0, np.int32), np.zeros(0), np.zeros((3, 0)), np.zeros((3, 0)),
+             np.zeros((3, 0)), False, np.zeros(0, np.int32), np.zeros((3, 0)), np.zeros((3, 0)), False,
              one + 1.0, one + 1.0, one, one + 1.0, 0.01, 1, 1, 1, np.zeros((3, 1)), np.zeros(1))
     half_space, sphere = _STATE["half_space"], _STATE["sphere"]
     half_space(f3.copy(), f3.copy(), index, f3[:, :1].copy(), f3[:, :1] + 1.0, f3[:, :1].copy(),

@@ -198,6 +198,19 @@ def test_full_head_keeps_scalp_ears_neck_and_shoulders_still(head, head_rig):
     assert chin[2] < -0.1 * width
 
 
+def test_settle_moves_the_whole_mesh_as_its_frames_do(head_rig):
+    """A settle is its frames: the vertices beyond the face follow the jaw there too."""
+    rig = head_rig
+    rig.reset_state()
+    rig.reset_controls()
+    rig.set_controls({"jaw_open": 1.0})
+    settled = rig.settle(0.25)                             # 6 frames (the skin is still moving)
+    rig.reset_state()
+    for _ in range(6):
+        stepped = rig.step_frame()
+    np.testing.assert_array_equal(settled, stepped)
+
+
 def test_no_skin_inside_skull_or_jaw_after_all_muscles_and_the_jaw(rig):
     t = rig.template
     bones = t.bones

@@ -31,6 +31,26 @@ def test_neutral_rig_stays_at_rest_and_outputs_blender_ready_arrays(rig):
     assert {"jaw", "eye_L", "eye_R", "teeth_upper", "teeth_lower", "tongue"} <= set(transforms)
 
 
+def test_settle_stops_when_nothing_moves_whatever_the_velocity(rig, monkeypatch):
+    """At rest means no node moved (a guard-held node keeps a velocity its guard never lets it use)."""
+    fresh(rig)
+    frames = []
+    advance = rig._advance
+
+    def held(dt):                       # a frame at rest, then a velocity like a guard-held node's
+        rig.face.integrator.velocity[...] = 0.0
+        advance(dt)
+        frames.append(dt)
+        rig.face.integrator.velocity[:, 0] = 0.05
+    monkeypatch.setattr(rig, "_advance", held)
+    rig.settle(1.5)
+    assert len(frames) == 3
+    rig.set_controls({"jaw_open": 0.6})             # the skin moves: the settle goes on
+    frames.clear()
+    rig.settle(1.5)
+    assert len(frames) > 10
+
+
 def test_controls_are_clamped_and_unknown_names_rejected(rig):
     fresh(rig)
     rig.set_controls({"jaw_open": 3.0, "zygomaticus_major_L": -1.0, "eye_yaw": -7})
