@@ -54,6 +54,11 @@ TOLERANCE = 2e-4         # m of shortfall left alone (a fifth of a millimetre)
 SETTLED = 5e-4           # m: after a first sweep, shortfalls below half a millimetre wait for the next frame
 REACH = 1.5              # samples further apart than this many contact distances do not touch
 MAX_TURN = np.radians(6.0)   # per sweep: a deep overlap resolves over a few sweeps, the linearisation holds
+#: the share of a turn that a curled finger's MCP abduction takes against its rotation (1): the little finger's
+#: curled tip lies near its abduction axis, so clearing the ring finger's tip by abduction swung its proximal
+#: phalanx out of the fist (a hook); the rotation, which tilts the curl, moves the tip without swinging it
+ABDUCTION_WEIGHT = {"pinky": 0.05}
+CURL = (np.radians(90.0), np.radians(180.0))   # the weight applies from none to all between these summed flexions
 PARTS = ("proximal", "intermediate", "distal")
 
 
@@ -64,19 +69,21 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def turn_apart(pseudo: PseudoMuscles, dofs: np.ndarray, shorts: np.ndarray, jac: np.ndarray,
-               max_turn: float) -> bool:
-    """One linearised contact sweep: the smallest turn ``J^T lambda`` (``lambda >= 0``) of the joint DOFs
-    ``dofs`` that restores the ``shorts`` (m) with Jacobian ``jac`` (rows, DOFs), at most ``max_turn`` per
-    DOF, DOFs a turn would push past their Table 6.4 limits taken out (up to three solves); the joints'
-    speed into the contact is removed (as at a joint limit). Changes ``pseudo.angles`` and
-    ``pseudo.velocity`` in place; False when the turn is below 1e-7 rad (nothing moved)."""
+               max_turn: float, weights: np.ndarray | None = None) -> bool:
+    """One linearised contact sweep: the smallest turn ``W J^T lambda`` (``lambda >= 0``; the least
+    ``sum(turn^2 / w)``, ``W`` the DOFs' ``weights``, all 1 when None) of the joint DOFs ``dofs`` that
+    restores the ``shorts`` (m) with Jacobian ``jac`` (rows, DOFs), at most ``max_turn`` per DOF, DOFs a
+    turn would push past their Table 6.4 limits taken out (up to three solves); the joints' speed into the
+    contact is removed (as at a joint limit). Changes ``pseudo.angles`` and ``pseudo.velocity`` in place; False
+    when the turn is below 1e-7 rad (nothing moved)."""
     angles = pseudo.angles
     free = np.ones(len(dofs), bool)
+    weights = np.ones(len(dofs)) if weights is None else weights
     for _ in range(3):          # drop DOFs a turn would push past their limits, then solve again
         j = jac * free
-        gram = j @ j.T + 1e-9 * np.eye(len(shorts))
+        gram = (j * weights) @ j.T + 1e-9 * np.eye(len(shorts))
         lam = np.maximum(np.linalg.solve(gram, shorts), 0.0)
-        step = np.clip(j.T @ lam, -max_turn, max_turn)
+        step = np.clip(weights * (j.T @ lam), -max_turn, max_turn)
         target = angles[dofs] + step
         blocked = ((target < pseudo.lower[dofs]) & (step < 0)) | ((target > pseudo.upper[dofs]) & (step > 0))
         if not np.any(blocked & free):
@@ -128,10 +135,21 @@ class FingerContact:
         self.signs = np.array([[skeleton.dofs[k].sign for k in row] for row in flat])
         self.flexion_sign = np.array([skeleton.dofs[k].sign for k in self.flexion])
         self._flat_dofs = flat
+        self.curl_dofs = np.array([[skeleton.dof(f"{f}-finger-phalanx-{p}", "flexion") for p in PARTS]
+                                   for f in CONTACT_FINGERS])
+        self.least_weight = np.array([ABDUCTION_WEIGHT.get(f, 1.0) for f in CONTACT_FINGERS])
         self._last = None
         self._frozen: dict = {}
         axes = self.frames[:, :, 0]
         self.ulnar_sign = np.sign(np.einsum("pi,pi->p", axes[1:] + axes[:-1], np.diff(mcp, axis=0)))
+
+    def weights(self, angles: np.ndarray) -> np.ndarray:
+        """Each contact DOF's weight in the turn (fingers x (abduction, rotation), flattened): 1, but a curled
+        finger's abduction :data:`ABDUCTION_WEIGHT`, reached as its MCP, PIP and DIP flexions sum from
+        ``CURL[0]`` to ``CURL[1]`` (a straight finger's tip moves sideways by abduction as well as any)."""
+        curl = np.clip((angles[self.curl_dofs].sum(axis=1) - CURL[0]) / (CURL[1] - CURL[0]), 0.0, 1.0)
+        abduction = 1.0 + (self.least_weight - 1.0) * curl
+        return np.stack([abduction, np.ones_like(abduction)], axis=1).ravel()
 
     def transforms(self, angles: np.ndarray) -> np.ndarray:
         """The bone transforms of ``angles``: the ones the last contact check computed when the joints have not
@@ -264,18 +282,19 @@ class FingerContact:
         the linearised contacts of all pairs at once: the smallest turn ``J^T lambda`` with ``lambda >= 0``
         that restores every shortfall, DOFs held at a limit taken out."""
         pseudo, moved, angles, dofs = self.pseudo, False, self.pseudo.angles, self._flat_dofs.ravel()
+        weights = self.weights(angles)              # the flexions do not change while the contact turns
         compiled = self._compiled() if self.enabled else None
         if compiled is not None:
             frozen = self._frozen_for(angles)
             return bool(compiled[1](frozen["world_flex"], self.frames, frozen["offset"], frozen["centre"], self.signs,
                                     self.ulnar_sign, self.distance, self.knuckle_pairs[0], self.knuckle_pairs[1],
                                     self.rest.shape[1], KNUCKLE / SPACING, REACH, angles, pseudo.velocity, dofs,
-                                    pseudo.lower, pseudo.upper, SWEEPS, TOLERANCE, SETTLED, MAX_TURN))
+                                    pseudo.lower, pseudo.upper, SWEEPS, TOLERANCE, SETTLED, MAX_TURN, weights))
         for _ in range(SWEEPS if self.enabled else 0):
             shorts, jac = self._rows(angles)
             if len(shorts) == 0 or (moved and shorts.max() < SETTLED):
                 break
-            if not turn_apart(pseudo, dofs, shorts, jac, MAX_TURN):
+            if not turn_apart(pseudo, dofs, shorts, jac, MAX_TURN, weights):
                 break
             moved = True
         return moved

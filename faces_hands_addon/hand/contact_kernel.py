@@ -141,10 +141,10 @@ def _solve_small(matrix, rhs, size):
     return x
 
 
-def _turn(jac, shorts, close, angles, dofs, lower, upper, max_turn):
-    """The smallest turn ``J^T lambda`` (``lambda >= 0``) of the free DOFs that restores the ``close``
-    pairs' shortfalls, DOFs a turn would push past their limits taken out (up to three solves): the numpy
-    ``FingerContact.resolve`` sweep."""
+def _turn(jac, shorts, close, angles, dofs, lower, upper, max_turn, weights):
+    """The smallest turn ``W J^T lambda`` (``lambda >= 0``, ``W`` the DOFs' ``weights``) of the free DOFs
+    that restores the ``close`` pairs' shortfalls, DOFs a turn would push past their limits taken out (up to
+    three solves): the numpy ``FingerContact.resolve`` sweep."""
     size, width = close.shape[0], jac.shape[1]
     free = np.ones(width, np.bool_)
     step = np.zeros(width)
@@ -156,7 +156,7 @@ def _turn(jac, shorts, close, angles, dofs, lower, upper, max_turn):
                 total = 0.0
                 for c in range(width):
                     if free[c]:
-                        total += jac[close[r], c] * jac[close[s], c]
+                        total += jac[close[r], c] * jac[close[s], c] * weights[c]
                 gram[r, s] = total + (1e-9 if r == s else 0.0)
         lam = _solve_small(gram, rhs, size)
         any_blocked = False
@@ -165,7 +165,7 @@ def _turn(jac, shorts, close, angles, dofs, lower, upper, max_turn):
             if free[c]:
                 for r in range(size):
                     total += jac[close[r], c] * max(lam[r], 0.0)
-            step[c] = min(max(total, -max_turn), max_turn)
+            step[c] = min(max(total * weights[c], -max_turn), max_turn)
             target = angles[dofs[c]] + step[c]
             if free[c] and ((target < lower[dofs[c]] and step[c] < 0) or (target > upper[dofs[c]] and step[c] > 0)):
                 any_blocked = True
@@ -180,7 +180,7 @@ def _turn(jac, shorts, close, angles, dofs, lower, upper, max_turn):
 
 def resolve_sweeps(world_flex, frames, offset, centre, signs, ulnar_sign, distance, first, second, n,
                    knuckle_ratio, reach, angles, velocity, dofs, lower, upper, sweeps, tolerance, settled,
-                   max_turn):
+                   max_turn, weights):
     """Every sweep of ``FingerContact.resolve`` (:mod:`.contact`) in one call: pairs too close, their
     linearised turn, the DOFs clamped to their limits, the speed into the contact removed; ``angles`` and
     ``velocity`` change in place. Returns whether any joint turned."""
@@ -198,7 +198,7 @@ def resolve_sweeps(world_flex, frames, offset, centre, signs, ulnar_sign, distan
             break
         if moved and shorts[close].max() < settled:
             break
-        step = _turn(rows, shorts, close, angles, dofs, lower, upper, max_turn)
+        step = _turn(rows, shorts, close, angles, dofs, lower, upper, max_turn, weights)
         largest = 0.0
         new = np.empty(dofs.shape[0])
         for c in range(dofs.shape[0]):

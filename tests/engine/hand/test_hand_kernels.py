@@ -91,3 +91,34 @@ def test_a_whole_motion_reaches_the_same_joint_angles_with_the_compiled_loops(ri
     rig.contact.backend = rig.pseudo.backend = "auto"
     assert compiled_substeps() is not None
     np.testing.assert_allclose(finals["auto"], finals["numpy"], rtol=0, atol=1e-9)
+
+
+def test_compiled_contact_turn_matches_the_numpy_turn_with_the_weighted_little_finger(rig):
+    # the whole resolve (rows, the weighted smallest turn W J^T lambda, limits, speeds) on both paths, from the
+    # frames of a motion with the fingers turned into each other; in some the curled little finger's abduction
+    # is weighted down (contact.ABDUCTION_WEIGHT), so a weight dropped on either path shows here
+    contact, pseudo = rig.contact, rig.pseudo
+    assert contact._compiled() is not None
+    rig.reset()
+    compared = moved = weighted = 0
+    for values in _frames(rig)[:90:3]:
+        rig.step(values, 1 / 30)
+        angles, velocity = pseudo.angles.copy(), pseudo.velocity.copy()
+        weighted += contact.weights(angles).min() < 0.5
+        for turn in (0.0, -0.05, 0.08):
+            out = []
+            for backend in ("numpy", "auto"):
+                pseudo.angles[:] = angles
+                pseudo.angles[contact._flat_dofs[:, 0]] += turn
+                pseudo.velocity[:] = velocity
+                contact.backend = backend
+                turned = contact.resolve()
+                out.append((turned, pseudo.angles.copy(), pseudo.velocity.copy()))
+            contact.backend = "auto"
+            assert out[0][0] == out[1][0]
+            np.testing.assert_allclose(out[1][1], out[0][1], rtol=0, atol=1e-10)
+            np.testing.assert_allclose(out[1][2], out[0][2], rtol=0, atol=1e-10)
+            compared += 1
+            moved += out[0][0]
+        pseudo.angles[:], pseudo.velocity[:] = angles, velocity
+    assert compared == 90 and moved > 20 and weighted > 5
