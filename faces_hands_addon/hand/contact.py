@@ -279,7 +279,8 @@ class FingerContact:
 
     def resolve(self) -> bool:
         """Push touching fingers apart (module docstring); True if any joint was turned. Each sweep solves
-        the linearised contacts of all pairs at once: the smallest turn ``J^T lambda`` with ``lambda >= 0``
+        the linearised contacts of all pairs at once: the smallest weighted turn ``W J^T lambda`` with
+        ``lambda >= 0`` (:meth:`weights`: a curled little finger clears by rotation more than by abduction)
         that restores every shortfall, DOFs held at a limit taken out."""
         pseudo, moved, angles, dofs = self.pseudo, False, self.pseudo.angles, self._flat_dofs.ravel()
         weights = self.weights(angles)              # the flexions do not change while the contact turns
