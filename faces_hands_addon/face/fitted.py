@@ -291,12 +291,11 @@ class FittedFaceRig(FaceRig):
         super().reset_state()
         self._passive_offset = np.zeros_like(self._passive_rest)
 
-    def step_frame(self, dt: float = 1 / 24) -> np.ndarray:
-        """One frame (see :meth:`.rig.FaceRig.step_frame`); vertices beyond the face follow the jaw by their
-        weight. Returns the positions of all mesh vertices (mesh coordinates)."""
-        self._advance(dt)
+    def _advance(self, dt: float) -> None:
+        """One frame of the state (see :meth:`.rig.FaceRig._advance`); vertices beyond the face follow the jaw
+        by their weight. ``step_frame`` returns the positions of all mesh vertices (mesh coordinates)."""
+        super()._advance(dt)
         self._passive_offset = self._passive_motion()
-        return self.positions
 
     def _passive_motion(self) -> np.ndarray:
         """Head-space offsets of the vertices outside the network: carried by the jaw by their weight, or

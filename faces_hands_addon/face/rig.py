@@ -265,7 +265,8 @@ class FaceRig:
         return self._frame_inputs
 
     def _advance(self, dt: float) -> None:
-        """Simulate one frame of ``dt`` seconds (guards slide with the jaw during the frame)."""
+        """Simulate one frame of ``dt`` seconds (guards slide with the jaw during the frame); the state only
+        (:meth:`step_frame` also returns the positions, which :meth:`settle` needs only after its last frame)."""
         anchor, mirror, driven = self._frame_targets()
         face = self.face
         bones = [_IDENTITY, self._jaw_now]
@@ -292,7 +293,7 @@ class FaceRig:
         x = self.face.network.positions
         previous, moved = x.copy(), np.empty_like(x)
         for frame in range(frames):
-            self.step_frame(dt)                # (a fitted rig also moves the vertices beyond the face)
+            self._advance(dt)                  # the state only: the positions are built once, at the end
             if frame >= 2 and float(np.abs(np.subtract(x, previous, out=moved), out=moved).max()) < tolerance * dt:
                 break
             previous[...] = x

@@ -72,12 +72,9 @@ def _substeps(x, v, force, s_start, s_end, rest, k_soft, knee, k_extra, k_yield,
               kin_index, start_driven, delta_driven, interp_driven,
               inverse_mass, decay, kick, free, dt, first, count, substeps, diff,
               scale):  # pragma: no cover - compiled
-    """Substeps ``first .. first + count - 1`` of a frame of ``substeps`` (see the module docstring).
-    The springs go in three passes over the scratch ``diff`` (3, S) and ``scale`` (S,): gather the edge
-    vectors, the biphasic ``f / l`` of every spring (a loop without gathers, which the compiler
-    vectorises), then the forces scattered in spring order (the same sums, in the same order, as one pass)."""
+    """Substeps ``first .. first + count - 1`` of a frame of ``substeps`` (see the module docstring): the
+    spring forces (:func:`_spring_forces`), the attachment pairs, then the leapfrog update."""
     nodes = x.shape[1]
-    springs = s_start.shape[0]
     attached = att_node.shape[0]
     driven = kin_index.shape[0]
     for index in range(first, first + count):
@@ -91,37 +88,8 @@ def _substeps(x, v, force, s_start, s_end, rest, k_soft, knee, k_extra, k_yield,
                 k = kin_index[j]
                 for c in range(3):
                     x[c, k] = start_driven[c, j] + fraction * delta_driven[c, j]
-        for c in range(3):
-            for i in range(nodes):
-                force[c, i] = 0.0
-        for c in range(3):
-            for s in range(springs):
-                diff[c, s] = x[c, s_end[s]] - x[c, s_start[s]]
-        for s in range(springs):
-            dx = diff[0, s]
-            dy = diff[1, s]
-            dz = diff[2, s]
-            length = math.sqrt(dx * dx + dy * dy + dz * dz)
-            stretch = length - rest[s]
-            over = stretch - knee[s]
-            extra = (over if over > 0.0 else 0.0) * k_extra[s]
-            if has_yield:
-                extra = extra + (stretch if stretch < 0.0 else 0.0) * k_yield[s]
-            magnitude = stretch * k_soft[s] + extra
-            shortest = min_length[s]
-            scale[s] = magnitude / (shortest if length < shortest else length)
-        for s in range(springs):
-            a = s_start[s]
-            b = s_end[s]
-            fx = diff[0, s] * scale[s]
-            fy = diff[1, s] * scale[s]
-            fz = diff[2, s] * scale[s]
-            force[0, a] += fx
-            force[1, a] += fy
-            force[2, a] += fz
-            force[0, b] -= fx
-            force[1, b] -= fy
-            force[2, b] -= fz
+        _spring_forces(x, force, s_start, s_end, rest, k_soft, knee, k_extra, k_yield, has_yield, min_length,
+                       diff, scale)
         for j in range(attached):
             k = att_node[j]
             for c in range(3):
@@ -135,6 +103,73 @@ def _substeps(x, v, force, s_start, s_end, rest, k_soft, knee, k_extra, k_yield,
                 velocity = (v[c, i] * damp + (force[c, i] * mass_factor) * impulse) * keep
                 v[c, i] = velocity
                 x[c, i] += dt * velocity
+
+
+def _spring_forces(x, force, s_start, s_end, rest, k_soft, knee, k_extra, k_yield, has_yield, min_length, diff,
+                   scale):  # pragma: no cover - compiled
+    """The springs' forces on every node (``force`` (3, N), overwritten) in three passes over the scratch
+    ``diff`` (3, S) and ``scale`` (S,): gather the edge vectors (a spring's three axes at once: its two
+    node indices are read once, not once per axis), the biphasic ``f / l`` of every spring (a loop without
+    gathers, which the compiler vectorises), then the forces scattered in spring order (the same sums, in
+    the same order, as one pass). In the scatter the start node's sums stay in registers while consecutive
+    springs share it (the network lists its springs by start node): the same additions in the same order,
+    without a store and a reload per spring; any order of springs gives the same sums."""
+    nodes = x.shape[1]
+    springs = s_start.shape[0]
+    for c in range(3):
+        for i in range(nodes):
+            force[c, i] = 0.0
+    for s in range(springs):
+        a = s_start[s]
+        b = s_end[s]
+        diff[0, s] = x[0, b] - x[0, a]
+        diff[1, s] = x[1, b] - x[1, a]
+        diff[2, s] = x[2, b] - x[2, a]
+    for s in range(springs):
+        dx = diff[0, s]
+        dy = diff[1, s]
+        dz = diff[2, s]
+        length = math.sqrt(dx * dx + dy * dy + dz * dz)
+        stretch = length - rest[s]
+        over = stretch - knee[s]
+        extra = (over if over > 0.0 else 0.0) * k_extra[s]
+        if has_yield:
+            extra = extra + (stretch if stretch < 0.0 else 0.0) * k_yield[s]
+        magnitude = stretch * k_soft[s] + extra
+        shortest = min_length[s]
+        scale[s] = magnitude / (shortest if length < shortest else length)
+    current = -1
+    ax = ay = az = 0.0
+    for s in range(springs):
+        a = s_start[s]
+        if a != current:
+            if current >= 0:
+                force[0, current] = ax
+                force[1, current] = ay
+                force[2, current] = az
+            current = a
+            ax = force[0, a]
+            ay = force[1, a]
+            az = force[2, a]
+        b = s_end[s]
+        fx = diff[0, s] * scale[s]
+        fy = diff[1, s] * scale[s]
+        fz = diff[2, s] * scale[s]
+        ax += fx
+        ay += fy
+        az += fz
+        if b == current:                       # a spring from a node to itself (none is ever built)
+            ax -= fx
+            ay -= fy
+            az -= fz
+        else:
+            force[0, b] -= fx
+            force[1, b] -= fy
+            force[2, b] -= fz
+    if current >= 0:
+        force[0, current] = ax
+        force[1, current] = ay
+        force[2, current] = az
 
 
 def _half_space(x, v, nodes, point, normal, start_point, start_normal, interpolate, fraction,
@@ -252,7 +287,8 @@ def substep_kernel():
             numba.config.CACHE_DIR = str(folder)
         jit = numba.njit(cache=folder is not None, nogil=True, boundscheck=False)
         # IEEE division (no zero-divisor check, the guarded divisor is >= 1e-12): lets the spring loop vectorise
-        compiled = numba.njit(cache=folder is not None, nogil=True, boundscheck=False, error_model="numpy")(_substeps)
+        fast = numba.njit(cache=folder is not None, nogil=True, boundscheck=False, error_model="numpy")
+        compiled = fast(_calling(_substeps, {"_spring_forces": fast(_spring_forces)}))
         _STATE["half_space"], _STATE["sphere"] = jit(_half_space), jit(_sphere)
         _warm_up(compiled)
     except Exception as error:            # no numba, an unsupported numpy, a broken LLVM: the numpy path
@@ -280,16 +316,21 @@ def compiled(function, *helpers):
         return None
     key = (function.__module__, function.__qualname__)
     if key not in _COMPILED:
-        import types
         import numba
         names = {helper.__name__: compiled(helper) for helper in helpers}
         if names:
-            original = function
-            function = types.FunctionType(original.__code__, {**original.__globals__, **names}, original.__name__,
-                                          original.__defaults__, original.__closure__)
-            function.__qualname__, function.__module__ = original.__qualname__, original.__module__
+            function = _calling(function, names)
         _COMPILED[key] = numba.njit(cache=_STATE["folder"] is not None, nogil=True, boundscheck=False)(function)
     return _COMPILED[key]
+
+
+def _calling(function, names: dict):
+    """``function`` with the module-level names ``names`` (their compiled versions) in its globals."""
+    import types
+    copy = types.FunctionType(function.__code__, {**function.__globals__, **names}, function.__name__,
+                              function.__defaults__, function.__closure__)
+    copy.__qualname__, copy.__module__ = function.__qualname__, function.__module__
+    return copy
 
 
 def _warm_up(compiled) -> None:

@@ -211,6 +211,24 @@ def test_settle_moves_the_whole_mesh_as_its_frames_do(head_rig):
     np.testing.assert_array_equal(settled, stepped)
 
 
+def test_settle_builds_the_mesh_positions_once(head_rig, monkeypatch):
+    """The frames of a settle advance the state only; the mesh positions (every vertex of the artist's
+    mesh, mapped from head space) are built once, after the last frame."""
+    rig = head_rig
+    rig.reset_state()
+    rig.reset_controls()
+    rig.set_controls({"jaw_open": 1.0})
+    built = []
+    positions = FittedFaceRig.positions
+
+    def counted(self):
+        built.append(1)
+        return positions.fget(self)
+    monkeypatch.setattr(FittedFaceRig, "positions", property(counted))
+    rig.settle(0.25)                                       # 6 frames
+    assert len(built) == 1
+
+
 def test_no_skin_inside_skull_or_jaw_after_all_muscles_and_the_jaw(rig):
     t = rig.template
     bones = t.bones
