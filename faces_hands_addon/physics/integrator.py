@@ -291,7 +291,7 @@ class LeapfrogIntegrator:
             kin_index, start_driven, delta_driven = self._no_index, empty3, empty3
         if self._spring_scratch is None or self._spring_scratch[1].shape[0] != sp.count:
             self._spring_scratch = (np.empty((3, sp.count)), np.empty(sp.count))
-        start, end, att_node = self._indices()
+        start, end, att_node, att_per_node = self._indices()
         index = 1
         while index <= substeps:
             run_end = min(substeps, ((index - 1) // every + 1) * every) if constraint is not None else substeps
@@ -300,7 +300,8 @@ class LeapfrogIntegrator:
             inverse_mass, decay, kick = self._factors(dt)
             self.started = True
             compiled(net.positions, self.velocity, net.force, start, end, sp.rest, sp.k_soft, net._knee,
-                     net._k_extra, net._k_yield, net._has_yield, net._min_length, att_node, net._att_two_c,
+                     net._k_extra, net._k_yield, net._has_yield, net._min_length, att_node, att_per_node,
+                     net._att_two_c,
                      net.attachment_pull, start_pull, delta_pull, fast, kin_index, start_driven,
                      delta_driven, driven is not None, inverse_mass, decay, kick, self._free, dt, index,
                      run_end - index + 1, substeps, *self._spring_scratch)
@@ -312,13 +313,17 @@ class LeapfrogIntegrator:
 
     def _indices(self):
         """The springs' ``start``/``end`` and the attachments' ``node`` as int32 for the fused kernel (half
-        the bytes its gathers and scatters stream; same values), rebuilt whenever the network's arrays are
-        replaced."""
+        the bytes its gathers and scatters stream; same values), and whether attachment ``j`` is on node
+        ``j`` for every node (the kernel's attachment loop then reads no index); rebuilt whenever the
+        network's arrays are replaced."""
         sp, att = self.network.springs, self.network.attachments
         cached = self._kernel_index
         if cached is None or cached[0] is not sp.start or cached[1] is not sp.end or cached[2] is not att.node:
+            node = np.asarray(att.node)
+            per_node = len(node) == self.network.node_count and np.array_equal(node, np.arange(len(node)))
             self._kernel_index = cached = (sp.start, sp.end, att.node,
-                                           *(np.ascontiguousarray(a, np.int32) for a in (sp.start, sp.end, att.node)))
+                                           *(np.ascontiguousarray(a, np.int32) for a in (sp.start, sp.end, att.node)),
+                                           bool(per_node))
         return cached[3:]
 
     def kinetic_energy(self) -> float:

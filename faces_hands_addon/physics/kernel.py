@@ -68,12 +68,14 @@ def compile_seconds() -> float | None:
 
 
 def _substeps(x, v, force, s_start, s_end, rest, k_soft, knee, k_extra, k_yield, has_yield, min_length,
-              att_node, att_two_c, pull, start_pull, delta_pull, interp_pull,
+              att_node, att_per_node, att_two_c, pull, start_pull, delta_pull, interp_pull,
               kin_index, start_driven, delta_driven, interp_driven,
               inverse_mass, decay, kick, free, dt, first, count, substeps, diff,
               scale):  # pragma: no cover - compiled
     """Substeps ``first .. first + count - 1`` of a frame of ``substeps`` (see the module docstring): the
-    spring forces (:func:`_spring_forces`), the attachment pairs, then the leapfrog update."""
+    spring forces (:func:`_spring_forces`), the attachment pairs, then the leapfrog update. With
+    ``att_per_node`` (attachment ``j`` is on node ``j`` for every node, as the face networks build them) the
+    attachment loop reads no index (a loop the compiler vectorises; the same sums)."""
     nodes = x.shape[1]
     attached = att_node.shape[0]
     driven = kin_index.shape[0]
@@ -90,10 +92,15 @@ def _substeps(x, v, force, s_start, s_end, rest, k_soft, knee, k_extra, k_yield,
                     x[c, k] = start_driven[c, j] + fraction * delta_driven[c, j]
         _spring_forces(x, force, s_start, s_end, rest, k_soft, knee, k_extra, k_yield, has_yield, min_length,
                        diff, scale)
-        for j in range(attached):
-            k = att_node[j]
+        if att_per_node:
             for c in range(3):
-                force[c, k] += pull[c, j] - x[c, k] * att_two_c[j]
+                for i in range(nodes):
+                    force[c, i] += pull[c, i] - x[c, i] * att_two_c[i]
+        else:
+            for j in range(attached):
+                k = att_node[j]
+                for c in range(3):
+                    force[c, k] += pull[c, j] - x[c, k] * att_two_c[j]
         for i in range(nodes):
             keep = free[i]
             mass_factor = inverse_mass[i]
@@ -341,7 +348,7 @@ def _warm_up(compiled) -> None:
     index = np.zeros(1, np.int64)
     small = np.zeros(1, np.int32)               # the integrator passes its node indices as int32
     compiled(f3.copy(), f3.copy(), f3.copy(), small, small + 1, one[:1], one[:1], one[:1], one[:1], one[:1],
-             False, one[:1] + 1.0, np.zeros(0, np.int32), np.zeros(0), np.zeros((3, 0)), np.zeros((3, 0)),
+             False, one[:1] + 1.0, np.zeros(0, np.int32), False, np.zeros(0), np.zeros((3, 0)), np.zeros((3, 0)),
              np.zeros((3, 0)), False, np.zeros(0, np.int32), np.zeros((3, 0)), np.zeros((3, 0)), False,
              one + 1.0, one + 1.0, one, one + 1.0, 0.01, 1, 1, 1, np.zeros((3, 1)), np.zeros(1))
     half_space, sphere = _STATE["half_space"], _STATE["sphere"]

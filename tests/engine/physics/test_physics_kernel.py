@@ -17,8 +17,9 @@ pytestmark = pytest.mark.skipif(importlib.util.find_spec("numba") is None,
 TOLERANCE_M = 1e-9
 
 
-def grid(n=16, spacing=0.01, k_soft=20.0, ratio=4.0, threshold=0.1, attach=0.5):
-    """A sheet with biphasic edge and diagonal springs and zero-rest attachment pairs (as the face)."""
+def grid(n=16, spacing=0.01, k_soft=20.0, ratio=4.0, threshold=0.1, attach=0.5, attached=None):
+    """A sheet with biphasic edge and diagonal springs and zero-rest attachment pairs (as the face: one
+    per node in node order, or on the nodes ``attached`` in that order)."""
     xs, zs = np.meshgrid(np.arange(n), np.arange(n))
     positions = np.stack([xs.ravel() * spacing, np.zeros(n * n), zs.ravel() * spacing], 1)
     index = np.arange(n * n).reshape(n, n)
@@ -28,12 +29,14 @@ def grid(n=16, spacing=0.01, k_soft=20.0, ratio=4.0, threshold=0.1, attach=0.5):
     rest = np.linalg.norm(positions[edges[:, 1]] - positions[edges[:, 0]], axis=1) * 0.97
     springs = SpringSet(edges[:, 0], edges[:, 1], rest, k_soft, k_soft * ratio, threshold, k_soft * 0.5)
     depth = np.array([[0.0], [0.004], [0.0]])
-    attachments = Attachments(np.arange(n * n), attach, 0.0, positions.T + depth, positions.T - depth)
+    attached = np.arange(n * n) if attached is None else np.asarray(attached)
+    attachments = Attachments(attached, attach, 0.0, positions.T[:, attached] + depth,
+                              positions.T[:, attached] - depth)
     return SpringNetwork(positions, 1e-3, springs, attachments)
 
 
-def _drive(backend, kinematic=0, every=4, frames=30):
-    net = grid(n=16)
+def _drive(backend, kinematic=0, every=4, frames=30, attached=None):
+    net = grid(n=16, attached=attached)
     net.kinematic[:kinematic] = True
     integrator = LeapfrogIntegrator(net, 0.02)
     integrator.backend = backend
@@ -60,6 +63,17 @@ def test_fused_kernel_matches_numpy_reference(kinematic, every):
     assert np.abs(ref[1] - fused[1]).max() < 1e-6           # m/s
     assert ref[2] == pytest.approx(fused[2], abs=1e-12)
     assert ref[3] == fused[3]                                # the guard runs at the same fractions
+
+
+@pytest.mark.parametrize("attached", [np.arange(256)[::-1], np.arange(0, 256, 3),
+                                      np.random.default_rng(0).permutation(256)[:200]])
+def test_fused_kernel_matches_numpy_with_attachments_in_any_order(attached):
+    """Attachments that are not one per node in node order (reversed, on some nodes, shuffled) take the
+    kernel's indexed attachment loop."""
+    ref = _drive("numpy", attached=attached)
+    fused = _drive("numba", attached=attached)
+    assert np.abs(ref[0] - fused[0]).max() < TOLERANCE_M
+    assert np.abs(ref[1] - fused[1]).max() < 1e-6
 
 
 def test_fused_kernel_matches_on_the_default_face():
