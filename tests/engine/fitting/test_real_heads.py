@@ -135,8 +135,9 @@ def test_landmarks_do_not_depend_on_the_machines_core_count():
 
 
 @pytest.mark.parametrize("name, wanted", [
-    ("soma", {"mouthPucker": 4.0, "viseme_RR": 1.5, "viseme_ou": 3.0}),
-    ("makehuman_neutral", {"viseme_RR": 1.5}),
+    ("soma", {"mouthPucker": 4.0, "viseme_RR": 1.5, "viseme_ou": 3.0, "mouthFunnel": 3.0, "viseme_CH": 2.0,
+              "viseme_oh": 2.0}),
+    ("makehuman_neutral", {"viseme_RR": 1.5, "viseme_CH": 2.0}),
 ])
 def test_fitted_lips_protrude_as_far_as_their_targets(name, wanted):
     """An artist's head keeps its parted lips, and at an open lip margin the skin normal turns into the
@@ -144,7 +145,10 @@ def test_fitted_lips_protrude_as_far_as_their_targets(name, wanted):
     the lower margin), most lip vertices met the sheet at its inner border and took a reduced muscle weight,
     so the lips protruded 20-35 % less than on the default head (SOMA pucker 3.7, RR 1.4, ou 2.8 mm; MakeHuman
     RR 1.4). Sunk along the grid's own normal (``muscle_layout._sheet_normals``), these rounding shapes
-    protrude at least as far as the audit asks (thesis 3.1.2, the oris' protrusion)."""
+    protrude at least as far as the audit asks (thesis 3.1.2, the oris' protrusion). The lip's middle rows
+    follow the lip muscles' connections further (``muscles.BETWEEN_SCREEN``) and so give up some of their
+    travel to them (SOMA mouthFunnel 2.99, viseme_CH 1.99-2.0, viseme_oh 1.9-2.0 mm with the oris' 8 mm
+    forward travel); its 8.5 mm (presets/face/muscles.json) gives it back."""
     vertices, faces = _head(name)
     rig = build_fitted_rig(vertices, faces, seed=0)
     report = audit_shapes(rig, load_expressions("arkit") | load_expressions("visemes"), tuple(wanted))
