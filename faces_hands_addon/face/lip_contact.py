@@ -18,7 +18,7 @@ TOLERANCE = 0.0002        # m of overlap the lips may press into each other befo
 SPREAD = 0.009            # m over the skin from the margin over which the lip tissue follows the margin
 STACKED = (0.0015, 0.0035)  # m: lips this far apart front to back still touch fully / no longer touch
 CORNER = 0.007           # m around each mouth corner (commissure) that moves as one piece
-FITTED_CORNER = 0.018    # m: the same on a fitted head, around the middle of the mesh's own commissure
+FITTED_CORNER = 0.020    # m: the same on a fitted head, around the middle of the mesh's own commissure
 FITTED_ACROSS = 0.5      # share of that knot's sideways (x) blend: the corners still travel out and in
 
 
