@@ -307,3 +307,17 @@ def test_fitted_lip_midline_follows_a_one_sided_lip_muscle():
     report = audit_shapes(rig, load_expressions("arkit"), shapes)
     failed = {shape: report["rows"][shape][1] for shape in shapes if report["rows"][shape][1]}
     assert not failed, failed
+
+
+def test_fitted_commissure_moves_as_one_piece_when_the_lips_press():
+    """The African head's lip margins stop 5 mm short of its mouth corners (where its lips stop touching); the
+    commissure knot around the margins' ends (``lip_contact.CORNER``) left the triangles between them and the
+    corner to muscles pulling a millimetre apart the opposite ways: mouthPressLeft/Right, mouthClose and
+    viseme_PP folded 2, 2, 6 and 6 of them. On a fitted head the knot covers the mesh's own commissure
+    (``lip_contact._commissures``): each meets every target."""
+    vertices, faces = _head("makehuman_african_female_old")
+    rig = build_fitted_rig(vertices, faces, seed=0)
+    shapes = ("mouthPressLeft", "mouthPressRight", "mouthClose", "viseme_PP")
+    report = audit_shapes(rig, load_expressions("arkit") | load_expressions("visemes"), shapes)
+    failed = {shape: report["rows"][shape][1] for shape in shapes if report["rows"][shape][1]}
+    assert not failed, failed
