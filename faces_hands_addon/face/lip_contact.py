@@ -18,11 +18,43 @@ TOLERANCE = 0.0002        # m of overlap the lips may press into each other befo
 SPREAD = 0.009            # m over the skin from the margin over which the lip tissue follows the margin
 STACKED = (0.0015, 0.0035)  # m: lips this far apart front to back still touch fully / no longer touch
 CORNER = 0.007           # m around each mouth corner (commissure) that moves as one piece
+FITTED_CORNER = 0.020    # m: the same on a fitted head, around the middle of the mesh's own commissure
+FITTED_ACROSS = 0.5      # share of that knot's sideways (x) blend: the corners still travel out and in
 
 
 def _smoothstep(t: np.ndarray) -> np.ndarray:
     t = np.clip(t, 0.0, 1.0)
     return t * t * (3.0 - 2.0 * t)
+
+
+def _commissures(skin, rest: np.ndarray) -> list:
+    """Per mouth corner: the nodes that move as one piece, their weights and the share of each axis blended.
+
+    On the template the inner lip contours end where the lips meet at the corner, ~4 mm inside the outer
+    contour's corner, and the knot is ``CORNER`` around that end. On a fitted head (it has a driven ring)
+    the inner contours are the mesh's own lip margins, which stop where the artist's lips stop touching
+    (the MakeHuman African head: 5 mm short of the corner, 6.4 mm from the outer contour's corner); the
+    knot around their end left the mesh's commissure, small triangles between the margins' end and the
+    outer corner, to muscles pulling a millimetre apart the opposite ways, and it folded whenever the lips
+    pressed or rounded (mouthPress, mouthClose, viseme_PP, mouthPucker). There the knot is centred halfway
+    between the margin's end and the outer corner and reaches ``FITTED_CORNER``; sideways it blends only
+    ``FITTED_ACROSS``, so the corners still travel (mouthLeft/Right, mouthStretch) (3.1.2 "Muscles": the
+    modiolus where the lip and cheek muscles meet)."""
+    surface = ~skin.group("mouth_bag") | skin.group("lip_inner")
+    kinematic = getattr(skin, "kinematic", None)
+    fitted = kinematic is not None and bool(np.any(kinematic)) and "lips_outer_upper" in skin.contours
+    corners = []
+    for end in (skin.contours["lips_inner_upper"][0], skin.contours["lips_inner_upper"][-1]):
+        centre, reach, axes = rest[end], CORNER, np.ones(3)
+        if fitted:
+            outer = np.asarray(skin.contours["lips_outer_upper"])[[0, -1]]
+            corner = outer[np.argmin(np.linalg.norm(rest[outer] - rest[end], axis=1))]
+            centre, reach = 0.5 * (rest[end] + rest[corner]), FITTED_CORNER
+            axes = np.array([FITTED_ACROSS, 1.0, 1.0])
+        distance = np.linalg.norm(rest - centre, axis=1)
+        nodes = np.flatnonzero((distance < reach) & surface)
+        corners.append((nodes, 1.0 - _smoothstep(distance[nodes] / reach), axes))
+    return corners
 
 
 class LipContact:
@@ -34,7 +66,7 @@ class LipContact:
         self.upper, self.lower = upper, lower          # inner margin nodes, corners left out, by rest x
         self.rest_x = rest_x                           # (N,) rest x of every node
         self.members = members                         # per lip: (nodes that follow its margin, their weights)
-        self.corners = corners                         # per commissure: (nodes, weights)
+        self.corners = corners                         # per commissure: (nodes, weights, axis shares)
 
     @classmethod
     def build(cls, skin, node_bone: np.ndarray) -> "LipContact | None":
@@ -54,13 +86,7 @@ class LipContact:
             fade = 1.0 - _smoothstep(distance[nodes] / SPREAD)
             fade[np.isin(nodes, margin)] = 1.0
             members.append((nodes, fade))
-        corners = []
-        surface = ~skin.group("mouth_bag") | skin.group("lip_inner")
-        for end in (contours["lips_inner_upper"][0], contours["lips_inner_upper"][-1]):
-            distance_to_corner = np.linalg.norm(rest - rest[end], axis=1)
-            nodes = np.flatnonzero((distance_to_corner < CORNER) & surface)
-            corners.append((nodes, 1.0 - _smoothstep(distance_to_corner[nodes] / CORNER)))
-        return cls(upper, lower, rest[:, 0].copy(), members, corners)
+        return cls(upper, lower, rest[:, 0].copy(), members, _commissures(skin, rest))
 
     def commissures(self, target: np.ndarray, rest: np.ndarray) -> np.ndarray:
         """``target`` (N, 3) with each mouth corner moving as one piece: the displacement of the nodes
@@ -68,10 +94,11 @@ class LipContact:
         corner's tiny triangles (where the lips meet) fold over when neighbours a millimetre apart follow
         different muscles and bones; a real commissure is a firm knot of fibres (the modiolus)."""
         out = target.copy()
-        for nodes, weight in self.corners:
+        for nodes, weight, axes in self.corners:
             moved = target[nodes] - rest[nodes]
             mean = (weight[:, None] * moved).sum(axis=0) / weight.sum()
-            out[nodes] = rest[nodes] + (1.0 - weight[:, None]) * moved + weight[:, None] * mean
+            share = weight[:, None] * axes[None, :]
+            out[nodes] = rest[nodes] + (1.0 - share) * moved + share * mean
         return out
 
     def correction(self, target: np.ndarray) -> np.ndarray:

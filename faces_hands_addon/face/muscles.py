@@ -42,6 +42,31 @@ __all__ = ["MuscleSystem", "MuscleState"]
 
 CONNECTION_GAIN = 8.0        # weight of a control point = 1 + gain * contraction of its muscle
 RETRACTED_OUTER = 0.5        # orbicularis oris pulled back: the outermost fibre travels this much of the innermost
+LINEAR_SCREEN = 0.05         # step 4's screening of a linear muscle's free points (per grid step)
+SPHINCTER_SCREEN = 1.0       # ... of a sphincter's, beside its connected rows (a correction fades ~0.38 a row)
+BETWEEN_SCREEN = 0.5         # ... of a sphincter's rows between its connected rows (fades ~0.5 a row)
+
+
+def _screening(kind: str, fixed: np.ndarray) -> np.ndarray:
+    """Per grid point (rows x cols, flattened), how strongly step 4's spread of the connection corrections
+    is screened back to rest. The thesis (3.1.2 "Muscle Deformation") keeps the points "pulled at by other
+    muscles" fixed and elongates the "intermediate segments"; a linear muscle's points between its origin
+    and its insertion do that (``LINEAR_SCREEN``). A sphincter's rows beside its connections fade back fast
+    (``SPHINCTER_SCREEN``), but the rows *between* its connected rows (the orbicularis oris' middle, between
+    the left and the right ``upper_lip`` / ``lower_lip`` groups) are such an intermediate segment: screened
+    as hard, a one-sided levator labii superioris or depressor labii inferioris moved the lip's midline
+    by 8-13 % of its own rise (0.5-0.9 mm on fitted heads, under the audit's 1 mm for mouthUpperUp /
+    mouthLowerDown); ``BETWEEN_SCREEN`` lets it follow further. Not down to the linear value: the lower lip
+    margin and the nose fold then (default head, 0.2: mouthLowerDown 3, noseSneer 1 inverted triangles)."""
+    rows = fixed.shape[0]
+    if kind == "linear":
+        return np.full(fixed.size, LINEAR_SCREEN)
+    screen = np.full(fixed.shape, SPHINCTER_SCREEN)
+    connected_rows = np.flatnonzero(fixed.any(axis=1))
+    inner = connected_rows[(connected_rows > 0) & (connected_rows < rows - 1)]
+    if len(inner):
+        screen[inner.min() + 1:inner.max()] = BETWEEN_SCREEN
+    return screen.ravel()
 
 
 @dataclass
@@ -229,11 +254,11 @@ class MuscleSystem:
             if self.specs[index].kind == "linear":
                 fixed[grid[0]] = True                                     # origin stays on the bone
             free = ~fixed
-            screen = 0.05 if self.specs[index].kind == "linear" else 1.0
             if not np.any(free) or not np.any(self.connected[local]):
                 self.propagation.append(None)
                 continue
-            a = lap[np.ix_(free, free)] + screen * np.eye(int(free.sum()))
+            screen = _screening(self.specs[index].kind, fixed.reshape(rows, cols))[free]
+            a = lap[np.ix_(free, free)] + np.diag(screen)
             b = -lap[np.ix_(free, fixed)]
             spread = np.linalg.solve(a, b)                                # (free, fixed)
             full = np.zeros((n, int(fixed.sum())))
