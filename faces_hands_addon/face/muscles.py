@@ -44,7 +44,7 @@ CONNECTION_GAIN = 8.0        # weight of a control point = 1 + gain * contractio
 RETRACTED_OUTER = 0.5        # orbicularis oris pulled back: the outermost fibre travels this much of the innermost
 LINEAR_SCREEN = 0.05         # step 4's screening of a linear muscle's free points (per grid step)
 SPHINCTER_SCREEN = 1.0       # ... of a sphincter's, beside its connected rows (a correction fades ~0.38 a row)
-BETWEEN_SCREEN = 0.5         # ... of a sphincter's rows between its connected rows (fades ~0.5 a row)
+BETWEEN_SCREEN = 0.3         # ... of a sphincter's rows between its connected rows (fades ~0.58 a row)
 
 
 def _screening(kind: str, fixed: np.ndarray) -> np.ndarray:
@@ -56,8 +56,12 @@ def _screening(kind: str, fixed: np.ndarray) -> np.ndarray:
     the left and the right ``upper_lip`` / ``lower_lip`` groups) are such an intermediate segment: screened
     as hard, a one-sided levator labii superioris or depressor labii inferioris moved the lip's midline
     by 8-13 % of its own rise (0.5-0.9 mm on fitted heads, under the audit's 1 mm for mouthUpperUp /
-    mouthLowerDown); ``BETWEEN_SCREEN`` lets it follow further. Not down to the linear value: the lower lip
-    margin and the nose fold then (default head, 0.2: mouthLowerDown 3, noseSneer 1 inverted triangles)."""
+    mouthLowerDown); ``BETWEEN_SCREEN`` lets it follow further. The grid rows sit on landmarks, so the
+    muscle's midline follows alike on every head; what differs is the skin: a cupid's bow (the outer lip
+    contour dipping at the midline, MakeHuman 2.6 mm) is dragged up by its rising neighbours, a flat, thick
+    lip (African head) is not, and its midline needs the muscle to carry it (0.3: its midline rises 1.0 mm
+    for levator labii superioris, was 0.7 at 0.5). Not down to the linear value: the lower lip margin and
+    the nose fold then (default head, 0.25: noseSneer 1 inverted; 0.2: mouthLowerDown 3 as well)."""
     rows = fixed.shape[0]
     if kind == "linear":
         return np.full(fixed.size, LINEAR_SCREEN)
