@@ -47,7 +47,7 @@ SPHINCTER_SCREEN = 1.0       # ... of a sphincter's, beside its connected rows (
 BETWEEN_SCREEN = 0.3         # ... of a sphincter's rows between its connected rows (fades ~0.58 a row)
 
 
-def _screening(kind: str, fixed: np.ndarray) -> np.ndarray:
+def _screening(kind: str, fixed: np.ndarray, middle: float | None = None) -> np.ndarray:
     """Per grid point (rows x cols, flattened), how strongly step 4's spread of the connection corrections
     is screened back to rest. The thesis (3.1.2 "Muscle Deformation") keeps the points "pulled at by other
     muscles" fixed and elongates the "intermediate segments"; a linear muscle's points between its origin
@@ -61,7 +61,12 @@ def _screening(kind: str, fixed: np.ndarray) -> np.ndarray:
     contour dipping at the midline, MakeHuman 2.6 mm) is dragged up by its rising neighbours, a flat, thick
     lip (African head) is not, and its midline needs the muscle to carry it (0.3: its midline rises 1.0 mm
     for levator labii superioris, was 0.7 at 0.5). Not down to the linear value: the lower lip margin and
-    the nose fold then (default head, 0.25: noseSneer 1 inverted; 0.2: mouthLowerDown 3 as well)."""
+    the nose fold then (default head, 0.25: noseSneer 1 inverted; 0.2: mouthLowerDown 3 as well).
+    ``middle`` (muscles.json ``middle_screen``) screens the rows of the widest gap between connected rows,
+    the lip's middle away from either group, apart: the lower lip (0.2) lets its midline follow a
+    depressor labii inferioris further (African head 0.8 -> 1.1 mm) without folding the default head's lip
+    margin, which folds when the rows inside a group follow as freely (0.2 everywhere between). The upper
+    lip keeps 0.3: below it the default head's alar crease folds a triangle in noseSneer."""
     rows = fixed.shape[0]
     if kind == "linear":
         return np.full(fixed.size, LINEAR_SCREEN)
@@ -70,6 +75,9 @@ def _screening(kind: str, fixed: np.ndarray) -> np.ndarray:
     inner = connected_rows[(connected_rows > 0) & (connected_rows < rows - 1)]
     if len(inner):
         screen[inner.min() + 1:inner.max()] = BETWEEN_SCREEN
+        if middle is not None and len(inner) > 1:
+            gap = int(np.argmax(np.diff(inner)))
+            screen[inner[gap] + 1:inner[gap + 1]] = middle
     return screen.ravel()
 
 
@@ -261,7 +269,8 @@ class MuscleSystem:
             if not np.any(free) or not np.any(self.connected[local]):
                 self.propagation.append(None)
                 continue
-            screen = _screening(self.specs[index].kind, fixed.reshape(rows, cols))[free]
+            spec = self.specs[index]
+            screen = _screening(spec.kind, fixed.reshape(rows, cols), spec.middle_screen)[free]
             a = lap[np.ix_(free, free)] + np.diag(screen)
             b = -lap[np.ix_(free, fixed)]
             spread = np.linalg.solve(a, b)                                # (free, fixed)
