@@ -62,11 +62,12 @@ def _screening(kind: str, fixed: np.ndarray, middle: float | None = None) -> np.
     lip (African head) is not, and its midline needs the muscle to carry it (0.3: its midline rises 1.0 mm
     for levator labii superioris, was 0.7 at 0.5). Not down to the linear value: the lower lip margin and
     the nose fold then (default head, 0.25: noseSneer 1 inverted; 0.2: mouthLowerDown 3 as well).
-    ``middle`` (muscles.json ``middle_screen``) screens the rows of the widest gap between connected rows,
-    the lip's middle away from either group, apart: the lower lip (0.2) lets its midline follow a
-    depressor labii inferioris further (African head 0.8 -> 1.1 mm) without folding the default head's lip
-    margin, which folds when the rows inside a group follow as freely (0.2 everywhere between). The upper
-    lip keeps 0.3: below it the default head's alar crease folds a triangle in noseSneer."""
+    ``middle`` (muscles.json ``middle_screen``) screens the rows of the widest gap between connected rows
+    but the one beside each group (the lip's middle) apart: the lower lip (0.2) lets its midline follow a
+    depressor labii inferioris further (African head 0.8 -> 1.05-1.08 mm) without folding the default
+    head's lip margin (0.2 everywhere between: mouthLowerDown 3/2 inverted) nor, with the rows beside the
+    groups at 0.3, MakeHuman's skin outside the commissures in mouthPucker (2 inverted). The upper lip
+    keeps 0.3: 0.28-0.29 fold one triangle at the default head's alar crease in noseSneer."""
     rows = fixed.shape[0]
     if kind == "linear":
         return np.full(fixed.size, LINEAR_SCREEN)
@@ -77,7 +78,7 @@ def _screening(kind: str, fixed: np.ndarray, middle: float | None = None) -> np.
         screen[inner.min() + 1:inner.max()] = BETWEEN_SCREEN
         if middle is not None and len(inner) > 1:
             gap = int(np.argmax(np.diff(inner)))
-            screen[inner[gap] + 1:inner[gap + 1]] = middle
+            screen[inner[gap] + 2:inner[gap + 1] - 1] = middle
     return screen.ravel()
 
 
