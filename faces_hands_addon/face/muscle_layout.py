@@ -87,6 +87,7 @@ class MuscleSpec:
     #                                           shrink, lateral closure) of the inner fibre (see .muscles)
     rounding_taper: float = 0.0               # outer fibres shrink sideways (inner/outer)^rounding_taper as much
     group: str = ""                           # "oris" for the two halves of the orbicularis oris
+    middle_screen: float | None = None        # sphincter: screening of its middle rows (.muscles._screening)
 
 
 @dataclass
@@ -151,7 +152,8 @@ def parse_muscle_specs(text: str, mirror: np.ndarray, path: str = "muscles.json"
                 protrusion=tuple(v * mm for v in entry.get("protrusion_mm", (0.0, 0.0))),
                 rounding=tuple(entry.get("rounding", (0.0, 0.0))),
                 rounding_taper=float(entry.get("rounding_taper", 0.0)),
-                group=entry.get("group", ""))
+                group=entry.get("group", ""),
+                middle_screen=float(entry["middle_screen"]) if "middle_screen" in entry else None)
         except (KeyError, TypeError, ValueError) as exc:
             raise UserError(f"{path}: muscle {entry.get('name', '?')!r} is malformed ({exc})") from None
         if spec.kind not in ("linear", "sphincter") or len(grid) < 2 or any(len(r) != len(grid[0]) for r in grid):

@@ -44,10 +44,10 @@ CONNECTION_GAIN = 8.0        # weight of a control point = 1 + gain * contractio
 RETRACTED_OUTER = 0.5        # orbicularis oris pulled back: the outermost fibre travels this much of the innermost
 LINEAR_SCREEN = 0.05         # step 4's screening of a linear muscle's free points (per grid step)
 SPHINCTER_SCREEN = 1.0       # ... of a sphincter's, beside its connected rows (a correction fades ~0.38 a row)
-BETWEEN_SCREEN = 0.5         # ... of a sphincter's rows between its connected rows (fades ~0.5 a row)
+BETWEEN_SCREEN = 0.3         # ... of a sphincter's rows between its connected rows (fades ~0.58 a row)
 
 
-def _screening(kind: str, fixed: np.ndarray) -> np.ndarray:
+def _screening(kind: str, fixed: np.ndarray, middle: float | None = None) -> np.ndarray:
     """Per grid point (rows x cols, flattened), how strongly step 4's spread of the connection corrections
     is screened back to rest. The thesis (3.1.2 "Muscle Deformation") keeps the points "pulled at by other
     muscles" fixed and elongates the "intermediate segments"; a linear muscle's points between its origin
@@ -56,8 +56,18 @@ def _screening(kind: str, fixed: np.ndarray) -> np.ndarray:
     the left and the right ``upper_lip`` / ``lower_lip`` groups) are such an intermediate segment: screened
     as hard, a one-sided levator labii superioris or depressor labii inferioris moved the lip's midline
     by 8-13 % of its own rise (0.5-0.9 mm on fitted heads, under the audit's 1 mm for mouthUpperUp /
-    mouthLowerDown); ``BETWEEN_SCREEN`` lets it follow further. Not down to the linear value: the lower lip
-    margin and the nose fold then (default head, 0.2: mouthLowerDown 3, noseSneer 1 inverted triangles)."""
+    mouthLowerDown); ``BETWEEN_SCREEN`` lets it follow further. The grid rows sit on landmarks, so the
+    muscle's midline follows alike on every head; what differs is the skin: a cupid's bow (the outer lip
+    contour dipping at the midline, MakeHuman 2.6 mm) is dragged up by its rising neighbours, a flat, thick
+    lip (African head) is not, and its midline needs the muscle to carry it (0.3: its midline rises 1.0 mm
+    for levator labii superioris, was 0.7 at 0.5). Not down to the linear value: the lower lip margin and
+    the nose fold then (default head, 0.25: noseSneer 1 inverted; 0.2: mouthLowerDown 3 as well).
+    ``middle`` (muscles.json ``middle_screen``) screens the rows of the widest gap between connected rows
+    but the one beside each group (the lip's middle) apart: the lower lip (0.2) lets its midline follow a
+    depressor labii inferioris further (African head 0.8 -> 1.05-1.08 mm) without folding the default
+    head's lip margin (0.2 everywhere between: mouthLowerDown 3/2 inverted) nor, with the rows beside the
+    groups at 0.3, MakeHuman's skin outside the commissures in mouthPucker (2 inverted). The upper lip
+    keeps 0.3: 0.28-0.29 fold one triangle at the default head's alar crease in noseSneer."""
     rows = fixed.shape[0]
     if kind == "linear":
         return np.full(fixed.size, LINEAR_SCREEN)
@@ -66,6 +76,9 @@ def _screening(kind: str, fixed: np.ndarray) -> np.ndarray:
     inner = connected_rows[(connected_rows > 0) & (connected_rows < rows - 1)]
     if len(inner):
         screen[inner.min() + 1:inner.max()] = BETWEEN_SCREEN
+        if middle is not None and len(inner) > 1:
+            gap = int(np.argmax(np.diff(inner)))
+            screen[inner[gap] + 2:inner[gap + 1] - 1] = middle
     return screen.ravel()
 
 
@@ -257,7 +270,8 @@ class MuscleSystem:
             if not np.any(free) or not np.any(self.connected[local]):
                 self.propagation.append(None)
                 continue
-            screen = _screening(self.specs[index].kind, fixed.reshape(rows, cols))[free]
+            spec = self.specs[index]
+            screen = _screening(spec.kind, fixed.reshape(rows, cols), spec.middle_screen)[free]
             a = lap[np.ix_(free, free)] + np.diag(screen)
             b = -lap[np.ix_(free, fixed)]
             spread = np.linalg.solve(a, b)                                # (free, fixed)

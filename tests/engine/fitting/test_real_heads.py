@@ -309,6 +309,21 @@ def test_fitted_lip_midline_follows_a_one_sided_lip_muscle():
     assert not failed, failed
 
 
+def test_thick_flat_lip_midline_follows_a_one_sided_lip_muscle():
+    """The African head's lips are thick and their outer contour flat at the midline (no cupid's-bow dip for
+    the rising neighbours to drag up, as on MakeHuman): with the oris' middle rows screened 0.5 its midline
+    rose 0.7 mm for mouthUpperUp and mouthShrugUpper and fell 0.4-0.5 mm for mouthLowerDown. Screened 0.3
+    (``muscles.BETWEEN_SCREEN``) and the lower lip's middle rows 0.2 (``middle_screen``, presets/face/
+    muscles.json), the grid's middle follows the one-sided pull further (thesis 3.1.2, "intermediate
+    segments are elongated") and these four meet the audit's 1 mm (1.00-1.09 mm)."""
+    vertices, faces = _head("makehuman_african_female_old")
+    rig = build_fitted_rig(vertices, faces, seed=0)
+    shapes = ("mouthUpperUpLeft", "mouthLowerDownLeft", "mouthLowerDownRight", "mouthShrugUpper")
+    report = audit_shapes(rig, load_expressions("arkit"), shapes + ("mouthUpperUpRight",))   # its pair's asymmetry
+    failed = {shape: report["rows"][shape][1] for shape in shapes if report["rows"][shape][1]}
+    assert not failed, failed
+
+
 def test_fitted_commissure_moves_as_one_piece_when_the_lips_press():
     """The African head's lip margins stop 5 mm short of its mouth corners (where its lips stop touching); the
     commissure knot around the margins' ends (``lip_contact.CORNER``) left the triangles between them and the
