@@ -25,6 +25,18 @@ def _head(name):
     return data["vertices"].astype(np.float64), data["faces"].astype(np.int64)
 
 
+def _failed_targets(name, shapes, rig=None):
+    """The shape audit's failed checks of ``shapes`` (ARKit, viseme or named) on head ``name`` fitted with
+    seed 0, or on ``rig`` (empty: every target met)."""
+    if rig is None:
+        vertices, faces = _head(name)
+        rig = build_fitted_rig(vertices, faces, seed=0)
+    expressions = {key: value for kind in ("arkit", "visemes", "named")
+                   for key, value in load_expressions(kind).items()}
+    report = audit_shapes(rig, expressions, shapes)
+    return {shape: report["rows"][shape][1] for shape in shapes if report["rows"][shape][1]}
+
+
 @pytest.fixture(scope="module")
 def neutral():
     vertices, faces = _head("makehuman_neutral")
@@ -116,8 +128,7 @@ def test_fitted_mouth_lining_is_not_face_skin(name, shapes):
     vertices, faces = _head(name)
     rig = build_fitted_rig(vertices, faces, seed=0)
     assert rig.fitted.transfer.lining is not None and len(rig.fitted.transfer.lining)
-    report = audit_shapes(rig, load_expressions("arkit"), shapes)
-    failed = {shape: report["rows"][shape][1] for shape in shapes if report["rows"][shape][1]}
+    failed = _failed_targets(name, shapes, rig)
     assert not failed, failed
 
 
@@ -162,11 +173,8 @@ def test_parted_rest_lips_close_under_a_partial_oris():
     opening: cheekPuff's 0.4 oris left the African head's lips 2.5 mm apart and anger folded the commissures.
     The ring now closes the rest opening at twice the rate of its squeeze (``MuscleSystem.set_rest_closing``;
     the same at full contraction), and both meet every target again."""
-    vertices, faces = _head("makehuman_african_female_old")
-    rig = build_fitted_rig(vertices, faces, seed=0)
     shapes = ("cheekPuff", "anger")
-    report = audit_shapes(rig, load_expressions("arkit") | load_expressions("named"), shapes)
-    failed = {shape: report["rows"][shape][1] for shape in shapes if report["rows"][shape][1]}
+    failed = _failed_targets("makehuman_african_female_old", shapes)
     assert not failed, failed
 
 
@@ -176,11 +184,8 @@ def test_fitted_brows_lower_without_folding():
     browDown and 4 triangles between brow and lid folded on each side (anger 10, fear and disgust 2). The
     field is spread further on the mesh itself away from the lips (``mesh_template._spread_over_the_brows``,
     thesis 3.1.2 Fig. 3.4): these shapes meet every target, the inverted-triangle count included."""
-    vertices, faces = _head("soma")
-    rig = build_fitted_rig(vertices, faces, seed=0)
     shapes = ("browDownLeft", "browDownRight", "browInnerUp", "fear", "disgust")
-    report = audit_shapes(rig, load_expressions("arkit") | load_expressions("named"), shapes)
-    failed = {shape: report["rows"][shape][1] for shape in shapes if report["rows"][shape][1]}
+    failed = _failed_targets("soma", shapes)
     assert not failed, failed
 
 
@@ -254,11 +259,8 @@ def test_fitted_upper_lip_margin_row_stays_with_the_upper_lip():
     side (``transfer.SEED_SKIP``): the row from 4 mm beside the midline outwards took the lower lip's data
     (jaw weight 0.97), so closing or moving the jaw dragged the upper lip's edge with it: mouthClose,
     viseme_PP, jawLeft and jawRight folded 8, 9, 4 and 4 triangles. Now each meets its targets."""
-    vertices, faces = _head("makehuman_neutral")
-    rig = build_fitted_rig(vertices, faces, seed=0)
     shapes = ("mouthClose", "viseme_PP", "jawLeft", "jawRight")
-    report = audit_shapes(rig, load_expressions("arkit") | load_expressions("visemes"), shapes)
-    failed = {shape: report["rows"][shape][1] for shape in shapes if report["rows"][shape][1]}
+    failed = _failed_targets("makehuman_neutral", shapes)
     assert not failed, failed
 
 
@@ -267,11 +269,8 @@ def test_fitted_mouth_corner_slivers_keep_their_shape():
     slivers whose nodes lie in the mouth region, which ``SliverTies`` used to leave untied entirely, and
     mouthFrownLeft/Right turned it over (1 inverted each). Only the lip nodes (which lip contact and the
     teeth guard place) are left untied now: both frowns meet their targets."""
-    vertices, faces = _head("makehuman_neutral")
-    rig = build_fitted_rig(vertices, faces, seed=0)
     shapes = ("mouthFrownLeft", "mouthFrownRight")
-    report = audit_shapes(rig, load_expressions("arkit"), shapes)
-    failed = {shape: report["rows"][shape][1] for shape in shapes if report["rows"][shape][1]}
+    failed = _failed_targets("makehuman_neutral", shapes)
     assert not failed, failed
 
 
@@ -300,12 +299,9 @@ def test_fitted_lip_midline_follows_a_one_sided_lip_muscle():
     MakeHuman neutral, under the audit's 1 mm, and mouthShrugUpper 0.9 mm. With the middle segment
     elongated (``muscles.BETWEEN_SCREEN``, thesis 3.1.2 "intermediate segments are elongated") all five meet
     their targets (1.1-1.3 mm)."""
-    vertices, faces = _head("makehuman_neutral")
-    rig = build_fitted_rig(vertices, faces, seed=0)
     shapes = ("mouthUpperUpLeft", "mouthUpperUpRight", "mouthLowerDownLeft", "mouthLowerDownRight",
               "mouthShrugUpper")
-    report = audit_shapes(rig, load_expressions("arkit"), shapes)
-    failed = {shape: report["rows"][shape][1] for shape in shapes if report["rows"][shape][1]}
+    failed = _failed_targets("makehuman_neutral", shapes)
     assert not failed, failed
 
 
@@ -330,9 +326,6 @@ def test_fitted_commissure_moves_as_one_piece_when_the_lips_press():
     corner to muscles pulling a millimetre apart the opposite ways: mouthPressLeft/Right, mouthClose and
     viseme_PP folded 2, 2, 6 and 6 of them. On a fitted head the knot covers the mesh's own commissure
     (``lip_contact._commissures``): each meets every target."""
-    vertices, faces = _head("makehuman_african_female_old")
-    rig = build_fitted_rig(vertices, faces, seed=0)
     shapes = ("mouthPressLeft", "mouthPressRight", "mouthClose", "viseme_PP")
-    report = audit_shapes(rig, load_expressions("arkit") | load_expressions("visemes"), shapes)
-    failed = {shape: report["rows"][shape][1] for shape in shapes if report["rows"][shape][1]}
+    failed = _failed_targets("makehuman_african_female_old", shapes)
     assert not failed, failed
