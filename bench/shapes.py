@@ -67,6 +67,7 @@ def _rigs(args) -> list[tuple[str, object]]:
             rig = build_fitted_rig(data["vertices"].astype(np.float64), data["faces"].astype(np.int64), seed=0)
             print(f"fitted {Path(path).name} in {time.perf_counter() - started:.0f} s; warnings: {rig.warnings}")
             if args.save_rig:
+                Path(args.save_rig).mkdir(parents=True, exist_ok=True)
                 rig.save(Path(args.save_rig) / f"{Path(path).stem}.npz")
             out.append((Path(path).stem, rig))
         return out
