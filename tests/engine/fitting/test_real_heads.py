@@ -189,6 +189,24 @@ def test_fitted_brows_lower_without_folding():
     assert not failed, failed
 
 
+def test_fitted_disgust_keeps_the_nasolabial_crease_from_folding():
+    """SOMA models a crease beside the ala; disgust's levator labii superioris raises the upper lip beside it
+    and the compressed skin buckles there. At 0.4 (with the oris' middle following the lip muscles,
+    ``muscles.BETWEEN_SCREEN``) its worst triangle kept 0.008 of its rest normal here and turned over under
+    another numpy build (bpy 5.2.3); at 0.3 (presets/expressions/named.json) it keeps 0.22 and the nose still
+    rises 5.8 mm (target 1.5). Every outer triangle keeps at least 0.1 of its rest normal."""
+    from faces_hands_addon.face.audit import Probe, settle_expression
+    vertices, faces = _head("soma")
+    rig = build_fitted_rig(vertices, faces, seed=0)
+    probe = Probe(rig)
+    pos = settle_expression(rig, load_expressions("named")["disgust"])
+    a, b, c = (pos[probe.faces[:, k]] for k in range(3))
+    normal = np.cross(b - a, c - a)
+    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-30)
+    kept = np.einsum("ij,ij->i", normal, probe.rest_normals)[probe.outside]
+    assert kept.min() > 0.1, f"worst outer triangle keeps {kept.min():.3f} of its rest normal"
+
+
 def test_fitted_canthus_slivers_do_not_flip():
     """SOMA's inner canthus has sliver triangles: two vertices 0.2 mm apart (one edge 0.2 mm), and flat caps
     whose corner lies 0.1-0.2 mm from the opposite edge.
