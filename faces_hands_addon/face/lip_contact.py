@@ -41,8 +41,7 @@ def _commissures(skin, rest: np.ndarray) -> list:
     ``FITTED_ACROSS``, so the corners still travel (mouthLeft/Right, mouthStretch) (3.1.2 "Muscles": the
     modiolus where the lip and cheek muscles meet)."""
     surface = ~skin.group("mouth_bag") | skin.group("lip_inner")
-    kinematic = getattr(skin, "kinematic", None)
-    fitted = kinematic is not None and bool(np.any(kinematic)) and "lips_outer_upper" in skin.contours
+    fitted = skin.driven and "lips_outer_upper" in skin.contours
     corners = []
     for end in (skin.contours["lips_inner_upper"][0], skin.contours["lips_inner_upper"][-1]):
         centre, reach, axes = rest[end], CORNER, np.ones(3)

@@ -266,7 +266,7 @@ def _bone_guard(template: HeadTemplate, lid_weight: np.ndarray) -> BoneHalfSpace
     plane_height = np.einsum("ij,ij->i", nodes - anchoring.bone_point, anchoring.bone_normal)
     guarded = skin.group("surface") & (lid_weight == 0) & (plane_height > 0.0015)
     guarded &= ~skin.group("lip_inner") & ~skin.group("mouth_bag") & ~skin.mouth_region
-    if skin.kinematic is not None and np.any(skin.kinematic):
+    if skin.driven:
         # a fitted head (it has a driven ring): skin whose closest bone faces away from it lies over an
         # opening of the transferred skull (SOMA's lower brow: the orbit's roof, 5 mm above it, facing down),
         # not on the bone; that plane held the brow down when it rose (browOuterUp folded)

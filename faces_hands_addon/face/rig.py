@@ -72,8 +72,7 @@ class FaceRig:
         self.head_to_mesh = np.eye(4)
         self.warnings: list[str] = []      # problems that leave the rig usable (fitted heads: no mouth opening)
         self.identity = ""                 # set by the rig store (core.rig.save_rig / load_rig_bytes)
-        kinematic = template.skin.kinematic
-        self._driven = kinematic is not None and bool(np.any(kinematic))
+        self._driven = template.skin.driven
         self._lip_contact = LipContact.build(template.skin, template.attachment.node_bone)
         self._pressure = CheekPressure.build(template.skin, np.asarray(template.skin.normals, np.float64))
         self._cache_key = None

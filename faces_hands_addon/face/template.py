@@ -85,6 +85,11 @@ class SkinRecord:
     def group(self, name: str) -> np.ndarray:
         return self.mesh.group(name)
 
+    @property
+    def driven(self) -> bool:
+        """A head fitted to an artist's mesh: it has a ring of driven (``kinematic``) nodes."""
+        return self.kinematic is not None and bool(np.any(self.kinematic))
+
 
 @dataclass
 class OrganRecord:
