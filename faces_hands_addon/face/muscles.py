@@ -253,24 +253,24 @@ class MuscleSystem:
         """Per muscle, the linear map from corrections at its fixed points to all its points."""
         self.propagation = []
         for index, (rows, cols) in enumerate(self.shapes):
+            spec = self.specs[index]
             n = rows * cols
             grid = np.arange(n).reshape(rows, cols)
             lap = np.zeros((n, n))
             pairs = [(grid[r, c], grid[r + 1, c]) for r in range(rows - 1) for c in range(cols)]
             pairs += [(grid[r, c], grid[r, c + 1]) for r in range(rows) for c in range(cols - 1)]
-            if self.specs[index].closed:
+            if spec.closed:
                 pairs += [(grid[rows - 1, c], grid[0, c]) for c in range(cols)]
             for a, b in pairs:
                 lap[a, a] += 1; lap[b, b] += 1; lap[a, b] -= 1; lap[b, a] -= 1
             local = self.slice(index)
             fixed = self.connected[local].copy()
-            if self.specs[index].kind == "linear":
+            if spec.kind == "linear":
                 fixed[grid[0]] = True                                     # origin stays on the bone
             free = ~fixed
             if not np.any(free) or not np.any(self.connected[local]):
                 self.propagation.append(None)
                 continue
-            spec = self.specs[index]
             screen = _screening(spec.kind, fixed.reshape(rows, cols), spec.middle_screen)[free]
             a = lap[np.ix_(free, free)] + np.diag(screen)
             b = -lap[np.ix_(free, fixed)]

@@ -195,15 +195,12 @@ def test_fitted_disgust_keeps_the_nasolabial_crease_from_folding():
     ``muscles.BETWEEN_SCREEN``) its worst triangle kept 0.008 of its rest normal here and turned over under
     another numpy build (bpy 5.2.3); at 0.3 (presets/expressions/named.json) it keeps 0.22 and the nose still
     rises 5.8 mm (target 1.5). Every outer triangle keeps at least 0.1 of its rest normal."""
-    from faces_hands_addon.face.audit import Probe, settle_expression
+    from faces_hands_addon.face.audit import Probe, _face_normals, settle_expression
     vertices, faces = _head("soma")
     rig = build_fitted_rig(vertices, faces, seed=0)
     probe = Probe(rig)
     pos = settle_expression(rig, load_expressions("named")["disgust"])
-    a, b, c = (pos[probe.faces[:, k]] for k in range(3))
-    normal = np.cross(b - a, c - a)
-    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-30)
-    kept = np.einsum("ij,ij->i", normal, probe.rest_normals)[probe.outside]
+    kept = np.einsum("ij,ij->i", _face_normals(pos, probe.faces), probe.rest_normals)[probe.outside]
     assert kept.min() > 0.1, f"worst outer triangle keeps {kept.min():.3f} of its rest normal"
 
 
