@@ -3,8 +3,10 @@
 Bake does (``anim.baking.expression_shapes``, settle time 1.5 s, no shape cache), with the numpy
 reference path and the fused numba kernel (physics/kernel.py), and with the settles on one thread and on
 ``anim.baking.SETTLE_THREADS`` threads (each on its own copy of the rig; the shapes are byte-identical,
-checked here). Wall and CPU (``process_time``: all threads) seconds and the load average before each run:
-on a shared machine the second core may be busy, and then only the one-thread figure means anything.
+checked here), and the frames the settles simulated (a settle stops when the skin is at rest, at the
+latest after 1.5 s = 36 frames: the count says how many settles ran to that cap). Wall and CPU
+(``process_time``: all threads) seconds and the load average before each run: on a shared machine the
+second core may be busy, and then only the one-thread figure means anything.
 BLAS: one thread. The 45k case is the 10k skin subdivided once and fitted as an artist's mesh (as
 ``bench/kernel.py``), optional (``--resolutions default 10k 45k``).
 
@@ -32,10 +34,25 @@ else:
 from faces_hands_addon.anim import baking  # noqa: E402
 from faces_hands_addon.anim.baking import expression_shapes  # noqa: E402
 from faces_hands_addon.face.expressions import expression_sets, load_expressions  # noqa: E402
-from faces_hands_addon.face.rig import build_default_rig  # noqa: E402
+from faces_hands_addon.face.rig import FaceRig, build_default_rig  # noqa: E402
 from faces_hands_addon.physics import kernel  # noqa: E402
 
 LABELS = {"default": "3k", "10k": "11k", "45k": "45k"}
+SETTLE_DT = 1 / 24
+SETTLE_FRAMES: list[int] = []        # frames of every settle since the last clear (any thread)
+
+
+def _counting_settle(settle):
+    """``FaceRig.settle`` that also appends the frames it simulated to :data:`SETTLE_FRAMES`."""
+    def counted(self, max_time: float = 1.5, dt: float = SETTLE_DT, tolerance: float = 2e-4):
+        started = self.time
+        positions = settle(self, max_time, dt, tolerance)
+        SETTLE_FRAMES.append(round((self.time - started) / dt))
+        return positions
+    return counted
+
+
+FaceRig.settle = _counting_settle(FaceRig.settle)
 
 
 def make_rig(resolution: str):
@@ -75,14 +92,19 @@ def main() -> None:
             for threads in sorted({1, baking.SETTLE_THREADS}):
                 baking.SETTLE_THREADS = threads
                 load = os.getloadavg()[0]
+                SETTLE_FRAMES.clear()
                 started, started_cpu = time.perf_counter(), time.process_time()
                 shapes[threads] = [s.pose.positions["skin"].tobytes() for s in expression_shapes(rig, expressions)]
                 wall, cpu = time.perf_counter() - started, time.process_time() - started_cpu
                 print(f"{label:>4} ({rig.face.network.node_count} nodes, {rig.substeps_per_frame(1 / 24)} substeps), "
                       f"{backend}, {threads} thread{'s' if threads > 1 else ''}: {len(shapes[threads])} expressions "
-                      f"in {wall:.1f} s wall, {cpu:.1f} s CPU (load average before: {load:.1f})")
+                      f"in {wall:.1f} s wall, {cpu:.1f} s CPU (load average before: {load:.1f}); "
+                      f"{sum(SETTLE_FRAMES)} frames simulated, {sum(f >= 36 for f in SETTLE_FRAMES)} of "
+                      f"{len(SETTLE_FRAMES)} settles at the 36-frame cap")
                 suffix = "" if threads == 1 else f"_t{threads}"
                 result += [f"bake_s_{backend}{suffix}_{label}={wall:.1f}", f"bake_cpu_s_{backend}{suffix}_{label}={cpu:.1f}"]
+                if threads == 1:
+                    result.append(f"frames_{backend}_{label}={sum(SETTLE_FRAMES)}")
             if len(shapes) > 1 and len(set(map(tuple, shapes.values()))) != 1:
                 sys.exit("the threaded bake gave other shapes than the one-thread bake")
     print("RESULT " + " ".join(result))
