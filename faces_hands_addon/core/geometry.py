@@ -16,6 +16,7 @@ __all__ = ["unique_edges", "edge_length_graph", "face_normals", "triangle_normal
 
 MAX_VERTICES = 5_000_000
 MAX_TRIANGLES = 10_000_000
+CLOSEST_CANDIDATES = 12     # triangles (nearest centroids) :func:`closest_points` tries per point
 _CLOSEST_ROWS = 65536      # point x candidate pairs :func:`closest_points` evaluates in one pass
 
 
@@ -135,7 +136,7 @@ def centroid_tree(vertices: np.ndarray, faces: np.ndarray) -> cKDTree:
     return cKDTree(np.asarray(vertices, np.float64)[np.asarray(faces, np.int64)].mean(axis=1))
 
 
-def closest_points(vertices: np.ndarray, faces: np.ndarray, points: np.ndarray, candidates: int = 12,
+def closest_points(vertices: np.ndarray, faces: np.ndarray, points: np.ndarray, candidates: int = CLOSEST_CANDIDATES,
                    tree: cKDTree | None = None):
     """Closest points on a triangle mesh: ``(point (M,3), face index (M,), barycentric (M,3), distance)``.
 

@@ -21,7 +21,7 @@ from scipy import sparse
 from scipy.sparse.csgraph import dijkstra
 
 from ..core import geometry
-from ..physics import kernel
+from ..physics import anchor_kernel, kernel
 from . import attachment_kernel
 from .skin import SkinMesh
 
@@ -161,15 +161,35 @@ class BoneSurface:
         self.vertices, self.faces = vertices, faces
         self.normals = geometry.vertex_normals(vertices, faces)
         self._tree = None
+        self._packed = None              # float64 / int64 copies for the compiled candidate pass
 
     def closest(self, points: np.ndarray):
         """Closest points (K, 3), unit normals there (K, 3) and distances (K,). The centroid tree is built
         on the first query and kept (the skin guard asks every frame)."""
         if self._tree is None:
             self._tree = geometry.centroid_tree(self.vertices, self.faces)
-        point, face, bary, dist = geometry.closest_points(self.vertices, self.faces, points, tree=self._tree)
+        compiled = kernel.compiled(anchor_kernel.closest_on_candidates, anchor_kernel._ratio) \
+            if kernel.loaded() else None
+        if compiled is None:
+            point, face, bary, dist = geometry.closest_points(self.vertices, self.faces, points, tree=self._tree)
+        else:                                      # the same answer, the candidates in one compiled pass
+            point, face, bary, dist = self._closest_compiled(compiled, np.asarray(points, np.float64))
         normal = np.einsum("ij,ijk->ik", bary, self.normals[self.faces[face]])
         return point, normal / np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-12), dist
+
+    def _closest_compiled(self, compiled, points: np.ndarray):
+        """:func:`..core.geometry.closest_points` (same candidates from the same tree, same arithmetic) with
+        the candidate triangles evaluated by :func:`..physics.anchor_kernel.closest_on_candidates`."""
+        if self._packed is None:
+            self._packed = (np.ascontiguousarray(self.vertices, np.float64), np.ascontiguousarray(self.faces, np.int64))
+        vertices, faces = self._packed
+        k = min(geometry.CLOSEST_CANDIDATES, len(faces))
+        _, candidates = self._tree.query(points, k=k)
+        candidates = np.ascontiguousarray(np.asarray(candidates, np.int64).reshape(len(points), k))
+        point, bary = np.empty((len(points), 3)), np.empty((len(points), 3))
+        face, dist = np.empty(len(points), np.int64), np.empty(len(points))
+        compiled(vertices, faces, np.ascontiguousarray(points), candidates, point, face, bary, dist)
+        return point, face, bary, dist
 
 
 def signed_bone_distance(nodes: np.ndarray, verts: np.ndarray, faces: np.ndarray):

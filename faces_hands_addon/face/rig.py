@@ -29,6 +29,7 @@ from ..anim.layers import mix, weighted_sum
 from ..core.controls import ControlSpec, clamp_controls
 from ..core.errors import UserError
 from ..core.rig import Pose, write_rig_archive
+from ..physics import kernel
 from . import FACE_RIG_FORMAT, kinematics
 from .controls import control_specs
 from .lip_contact import LipContact
@@ -290,12 +291,19 @@ class FaceRig:
         the guard puts it back every substep, so a velocity test waits for nodes that do not move."""
         frames = max(3, int(np.ceil(max_time / dt)))
         x = self.face.network.positions
-        previous, moved = x.copy(), np.empty_like(x)
+        previous = x.copy()
+        largest_move = kernel.compiled(kernel.largest_move) if kernel.loaded() else None
+        if largest_move is None:
+            moved = np.empty_like(x)
+
+            def largest_move(x, previous):     # the numpy path: the same number
+                step = float(np.abs(np.subtract(x, previous, out=moved), out=moved).max())
+                previous[...] = x
+                return step
         for frame in range(frames):
             self._advance(dt)                  # the state only: the positions are built once, at the end
-            if frame >= 2 and float(np.abs(np.subtract(x, previous, out=moved), out=moved).max()) < tolerance * dt:
+            if largest_move(x, previous) < tolerance * dt and frame >= 2:
                 break
-            previous[...] = x
         return self.positions
 
     def lip_gap(self) -> float:

@@ -19,7 +19,8 @@ import math
 
 import numpy as np
 
-__all__ = ["PackedGrids", "pack_grids", "moved_nodes", "nearest_bone_planes", "pose_planes"]
+__all__ = ["PackedGrids", "pack_grids", "moved_nodes", "any_moved_on_own_bone", "nearest_bone_planes",
+           "pose_planes", "closest_on_candidates"]
 
 
 class PackedGrids:
@@ -76,6 +77,28 @@ def moved_nodes(positions, nodes, last, moved, everything, x_out, active_out):  
             active_out[count] = k
             count += 1
     return count
+
+
+def any_moved_on_own_bone(positions, nodes, own, rotations, shifts, last, moved):  # pragma: no cover - compiled
+    """Whether any guarded node may have moved more than ``moved`` metres in its own bone's frame since its
+    plane was chosen (``last`` (3, K), bone frame; bone ``own[k]`` posed by ``rotations`` (B, 3, 3) and
+    ``shifts`` (B, 3)): a pre-test for the exact one of :meth:`.collision.BoneHalfSpaceGuard.refresh`,
+    which only runs when this says yes. ``moved`` carries the caller's margin: this loop's arithmetic may
+    differ from numpy's matrix product by rounding."""
+    limit = moved * moved
+    for k in range(nodes.shape[0]):
+        n, b = nodes[k], own[k]
+        dx = positions[0, n] - shifts[b, 0]
+        dy = positions[1, n] - shifts[b, 1]
+        dz = positions[2, n] - shifts[b, 2]
+        total = 0.0
+        for a in range(3):
+            local = rotations[b, 0, a] * dx + rotations[b, 1, a] * dy + rotations[b, 2, a] * dz
+            step = local - last[a, k]
+            total += step * step
+        if total > limit:
+            return True
+    return False
 
 
 def nearest_in_bone(px, py, pz, bone, vertices, order, starts, cube_start, origin, dims, cell,
@@ -171,3 +194,76 @@ def pose_planes(active, count, bone, rotations, shifts, local_point, local_norma
                            + rotations[b, i, 2] * local_point[2, k] + shifts[b, i])
             normal[i, k] = (rotations[b, i, 0] * local_normal[0, k] + rotations[b, i, 1] * local_normal[1, k]
                             + rotations[b, i, 2] * local_normal[2, k])
+
+
+def _ratio(num, den):  # pragma: no cover - compiled
+    return num / (den if abs(den) > 1e-300 else 1e-300)
+
+
+def closest_on_candidates(vertices, faces, points, candidates, best_point, best_face, best_bary,
+                          best_distance):  # pragma: no cover - compiled
+    """:func:`..core.geometry.closest_points` after its KD-tree query: the closest point of each point
+    (K, 3) on its ``candidates`` (K, C) triangles, with the arithmetic of
+    :func:`..core.geometry.closest_points_on_triangles` written out in the same order (a dot product as
+    numpy's ``einsum`` sums it on x86-64, x + z first, then y; Ericson's regions tried from the lowest to the
+    highest priority), the first of equal distances, and a NaN distance never winning. Fills ``best_*`` as
+    that function returns them (bit for bit where numpy sums in that order; a test checks it)."""
+    for i in range(points.shape[0]):
+        px, py, pz = points[i, 0], points[i, 1], points[i, 2]
+        found = False
+        for j in range(candidates.shape[1]):
+            f = candidates[i, j]
+            a0, a1, a2 = vertices[faces[f, 0], 0], vertices[faces[f, 0], 1], vertices[faces[f, 0], 2]
+            b0, b1, b2 = vertices[faces[f, 1], 0], vertices[faces[f, 1], 1], vertices[faces[f, 1], 2]
+            c0, c1, c2 = vertices[faces[f, 2], 0], vertices[faces[f, 2], 1], vertices[faces[f, 2], 2]
+            ab0, ab1, ab2 = b0 - a0, b1 - a1, b2 - a2
+            ac0, ac1, ac2 = c0 - a0, c1 - a1, c2 - a2
+            ap0, ap1, ap2 = px - a0, py - a1, pz - a2
+            bp0, bp1, bp2 = px - b0, py - b1, pz - b2
+            cp0, cp1, cp2 = px - c0, py - c1, pz - c2
+            d1 = (ab0 * ap0 + ab2 * ap2) + ab1 * ap1          # numpy's einsum order: x, z, then y
+            d2 = (ac0 * ap0 + ac2 * ap2) + ac1 * ap1
+            d3 = (ab0 * bp0 + ab2 * bp2) + ab1 * bp1
+            d4 = (ac0 * bp0 + ac2 * bp2) + ac1 * bp1
+            d5 = (ab0 * cp0 + ab2 * cp2) + ab1 * cp1
+            d6 = (ac0 * cp0 + ac2 * cp2) + ac1 * cp1
+            va, vb, vc = d3 * d6 - d5 * d4, d5 * d2 - d1 * d6, d1 * d4 - d3 * d2
+            denom = va + vb + vc
+            v, w = _ratio(vb, denom), _ratio(vc, denom)
+            u = 1.0 - v - w
+            if (va <= 0) and (d4 - d3 >= 0) and (d5 - d6 >= 0):
+                t = _ratio(d4 - d3, (d4 - d3) + (d5 - d6))
+                u, v, w = 0.0, 1 - t, t
+            if (vb <= 0) and (d2 >= 0) and (d6 <= 0):
+                t = _ratio(d2, d2 - d6)
+                u, v, w = 1 - t, 0.0, t
+            if (d6 >= 0) and (d5 <= d6):
+                u, v, w = 0.0, 0.0, 1.0
+            if (vc <= 0) and (d1 >= 0) and (d3 <= 0):
+                t = _ratio(d1, d1 - d3)
+                u, v, w = 1 - t, t, 0.0
+            if (d3 >= 0) and (d4 <= d3):
+                u, v, w = 0.0, 1.0, 0.0
+            if (d1 <= 0) and (d2 <= 0):
+                u, v, w = 1.0, 0.0, 0.0
+            u = 0.0 if u < 0.0 else (1.0 if u > 1.0 else u)
+            v = 0.0 if v < 0.0 else (1.0 if v > 1.0 else v)
+            w = 0.0 if w < 0.0 else (1.0 if w > 1.0 else w)
+            q0 = u * a0 + v * b0 + w * c0
+            q1 = u * a1 + v * b1 + w * c1
+            q2 = u * a2 + v * b2 + w * c2
+            e0, e1, e2 = q0 - px, q1 - py, q2 - pz
+            d = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+            if not d < math.inf:                        # NaN never wins
+                continue
+            if not found or d < best_distance[i]:
+                found = True
+                best_distance[i] = d
+                best_point[i, 0], best_point[i, 1], best_point[i, 2] = q0, q1, q2
+                best_face[i] = f
+                best_bary[i, 0], best_bary[i, 1], best_bary[i, 2] = u, v, w
+        if not found:
+            best_distance[i] = math.inf
+            best_point[i, 0] = best_point[i, 1] = best_point[i, 2] = 0.0
+            best_face[i] = 0
+            best_bary[i, 0] = best_bary[i, 1] = best_bary[i, 2] = 0.0

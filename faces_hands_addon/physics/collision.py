@@ -18,6 +18,8 @@ from . import anchor_kernel, kernel
 
 __all__ = ["BoneHalfSpaceGuard", "SphereGuard", "CapBulge"]
 
+_NO_STILL = (np.zeros(0, np.bool_), np.zeros((3, 0)), np.zeros((3, 0)))   # no interpolation: no still planes
+
 
 def _compiled_guards(backend: str):
     """The compiled guard loops for ``backend`` (see the classes' ``backend``), or ``None``."""
@@ -56,6 +58,7 @@ class BoneHalfSpaceGuard:
         self._packed = None               # the surfaces' grids for the compiled refresh
         self._own = None
         self._initial = (self.local_point.copy(), self.local_normal.copy(), self.bone.copy())
+        self._still = None                # this frame's still planes for the compiled guard (_still_planes)
 
     def keep_own_bones(self) -> None:
         """Guard every node against its *own* bone only (the bone it has now), and re-anchor its plane on the
@@ -87,6 +90,7 @@ class BoneHalfSpaceGuard:
         posed by :meth:`set_bone_transforms` / :meth:`refresh` (``fraction`` of the substeps), as the bones
         themselves move during the frame -- a jaw that opened in one go must not teleport the skin."""
         self._start = (self.point.copy(), self.normal.copy())
+        self._still = None
 
     def set_bone_transforms(self, transforms: list[np.ndarray] | np.ndarray) -> None:
         """Pose the guard planes with their bones (``transforms[b]`` is bone b's 4x4 matrix). The same
@@ -102,6 +106,7 @@ class BoneHalfSpaceGuard:
     def _pose(self, which: np.ndarray | None) -> None:
         """Pose the planes of the guarded nodes ``which`` (all for ``None``) with their bones."""
         self._posed = True
+        self._still = None
         if which is None and _compiled_guards(self.backend) is not None:
             every = np.arange(len(self.nodes))
             kernel.compiled(anchor_kernel.pose_planes)(every, len(every), self.bone, *self._bone_frames(),
@@ -261,6 +266,7 @@ class BoneHalfSpaceGuard:
         self._last[:, active] = x[active].T
         self._posed = True
         pose(active, count, self.bone, rotations, shifts, self.local_point, self.local_normal, self.point, self.normal)
+        self._still = None
 
     def _nearest_vertices(self, bone: int, local: np.ndarray):
         """Nearest vertex of ``bone`` within reach of each point (K, 3), bone frame: ``(dist, index)``, inf and
@@ -270,6 +276,9 @@ class BoneHalfSpaceGuard:
     def _refresh_own_bone(self, positions: np.ndarray, everything: bool) -> None:
         """:meth:`refresh` for :meth:`keep_own_bones`; ``_last`` holds node positions in their bone's frame."""
         if self._exact is None:
+            return
+        if self._last is not None and not everything and not self._may_have_moved(positions):
+            self._posed = True                 # as after re-anchoring no node (the planes stay as they are)
             return
         all_x = positions[:, self.nodes]
         local = np.empty_like(all_x)
@@ -296,6 +305,29 @@ class BoneHalfSpaceGuard:
             self._last[:, active] = local[:, active]
         self._pose(active)
 
+    def _may_have_moved(self, positions: np.ndarray) -> bool:
+        """The compiled pre-test of :meth:`_refresh_own_bone`: False only when no node can have moved
+        ``_moved`` in its bone's frame (a 1e-6 relative margin covers the rounding by which its loop and
+        numpy's matrix product may differ), so skipping the exact test then changes nothing. A settle's
+        later frames, where the skin barely moves, re-anchor no node in about two frames of three."""
+        test = kernel.compiled(anchor_kernel.any_moved_on_own_bone)
+        if test is None:
+            return True
+        rotations, shifts = self._bone_frames()
+        return bool(test(positions, self.nodes, self._own, rotations, shifts, self._last,
+                         self._moved * (1.0 - 1e-6)))
+
+    def _still_planes(self, compute, start_point: np.ndarray, start_normal: np.ndarray):
+        """``(still, point, normal)``: which planes do not move this frame and their slid plane, computed once
+        a frame (the planes are final once the frame's refresh has run) for the compiled guard loop."""
+        if self._still is None:
+            count = len(self.nodes)
+            still = np.empty(count, np.bool_)
+            point, normal = np.empty((3, count)), np.empty((3, count))
+            compute(self.point, self.normal, start_point, start_normal, still, point, normal)
+            self._still = (still, point, normal)
+        return self._still
+
     def penetration(self, positions: np.ndarray) -> np.ndarray:
         """How far each guarded node lies inside its clearance band (m, >= 0); ``positions`` is (3, N)."""
         x = positions[:, self.nodes]
@@ -310,8 +342,9 @@ class BoneHalfSpaceGuard:
         if compiled is not None and positions.flags.c_contiguous and velocity.flags.c_contiguous:
             interpolate = not (start is None or fraction >= 1.0)
             start_point, start_normal = start if interpolate else (self.point, self.normal)
+            still = self._still_planes(compiled[2], start_point, start_normal) if interpolate else _NO_STILL
             compiled[0](positions, velocity, nodes, self.point, self.normal, start_point, start_normal,
-                        interpolate, float(fraction), self.clearance)
+                        interpolate, float(fraction), self.clearance, *still)
             return
         if start is None or fraction >= 1.0:
             point, normal = self.point, self.normal
