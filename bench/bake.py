@@ -38,16 +38,15 @@ from faces_hands_addon.face.rig import FaceRig, build_default_rig  # noqa: E402
 from faces_hands_addon.physics import kernel  # noqa: E402
 
 LABELS = {"default": "3k", "10k": "11k", "45k": "45k"}
-SETTLE_DT = 1 / 24
 SETTLE_FRAMES: list[int] = []        # frames of every settle since the last clear (any thread)
 
 
 def _counting_settle(settle):
     """``FaceRig.settle`` that also appends the frames it simulated to :data:`SETTLE_FRAMES`."""
-    def counted(self, max_time: float = 1.5, dt: float = SETTLE_DT, tolerance: float = 2e-4):
+    def counted(self, *args, **kwargs):
         started = self.time
-        positions = settle(self, max_time, dt, tolerance)
-        SETTLE_FRAMES.append(round((self.time - started) / dt))
+        positions = settle(self, *args, **kwargs)
+        SETTLE_FRAMES.append(round((self.time - started) / kwargs.get("dt", baking.SETTLE_DT)))   # as settled() passes it
         return positions
     return counted
 

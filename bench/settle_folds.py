@@ -30,11 +30,12 @@ import _harness  # noqa: E402,F401
 
 import numpy as np  # noqa: E402
 
+from faces_hands_addon.anim.baking import SETTLE_DT  # noqa: E402
 from faces_hands_addon.face import audit  # noqa: E402
 from faces_hands_addon.face.audit_targets import TARGETS  # noqa: E402
 from faces_hands_addon.face.expressions import expression_controls, load_expressions  # noqa: E402
 
-DT, FRAMES, TOLERANCE, AFTER = 1 / 24, 36, 2e-4, 12      # as FaceRig.settle's defaults
+DT, FRAMES, TOLERANCE, AFTER = SETTLE_DT, 36, 2e-4, 12   # as a bake's settles (1.5 s), FaceRig.settle's tolerance
 
 
 def trajectory(rig, probe, controls: dict) -> tuple[int, list[int]]:

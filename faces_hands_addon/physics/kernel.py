@@ -192,18 +192,7 @@ def _half_space(x, v, nodes, point, normal, start_point, start_normal, interpola
             px, py, pz = still_point[0, j], still_point[1, j], still_point[2, j]
             nx, ny, nz = still_normal[0, j], still_normal[1, j], still_normal[2, j]
         elif interpolate:
-            px = start_point[0, j] + fraction * (point[0, j] - start_point[0, j])
-            py = start_point[1, j] + fraction * (point[1, j] - start_point[1, j])
-            pz = start_point[2, j] + fraction * (point[2, j] - start_point[2, j])
-            nx = start_normal[0, j] + fraction * (normal[0, j] - start_normal[0, j])
-            ny = start_normal[1, j] + fraction * (normal[1, j] - start_normal[1, j])
-            nz = start_normal[2, j] + fraction * (normal[2, j] - start_normal[2, j])
-            size = math.sqrt(nx * nx + ny * ny + nz * nz)
-            if size < 1e-12:
-                size = 1e-12
-            nx /= size
-            ny /= size
-            nz /= size
+            px, py, pz, nx, ny, nz = _slid_plane(point, normal, start_point, start_normal, j, fraction)
         else:
             px, py, pz = point[0, j], point[1, j], point[2, j]
             nx, ny, nz = normal[0, j], normal[1, j], normal[2, j]
@@ -219,32 +208,35 @@ def _half_space(x, v, nodes, point, normal, start_point, start_normal, interpola
                 v[2, k] -= nz * inward
 
 
+def _slid_plane(point, normal, start_point, start_normal, j, fraction):  # pragma: no cover - compiled
+    """Plane ``j`` slid from its start of the frame by ``fraction`` (point, then the normal renormalised):
+    ``(px, py, pz, nx, ny, nz)``, for :func:`_half_space` and :func:`_still_planes` alike."""
+    px = start_point[0, j] + fraction * (point[0, j] - start_point[0, j])
+    py = start_point[1, j] + fraction * (point[1, j] - start_point[1, j])
+    pz = start_point[2, j] + fraction * (point[2, j] - start_point[2, j])
+    nx = start_normal[0, j] + fraction * (normal[0, j] - start_normal[0, j])
+    ny = start_normal[1, j] + fraction * (normal[1, j] - start_normal[1, j])
+    nz = start_normal[2, j] + fraction * (normal[2, j] - start_normal[2, j])
+    size = math.sqrt(nx * nx + ny * ny + nz * nz)
+    if size < 1e-12:
+        size = 1e-12
+    return px, py, pz, nx / size, ny / size, nz / size
+
+
 def _still_planes(point, normal, start_point, start_normal, still, still_point, still_normal):  # pragma: no cover
     """For :func:`_half_space`: which planes are the same at the start and the end of the frame (``still``),
-    and for those the slid plane, normalised, as :func:`_half_space` computes it (``start + f (end - start)``
-    is ``start + f * 0``, the same for every fraction ``f`` in (0, 1]; 0.5 here). Returns how many."""
-    count = 0
+    and for those the slid plane (:func:`_slid_plane`; ``start + f (end - start)`` is ``start + f * 0``, the
+    same for every fraction ``f`` in (0, 1]: 0.5 here)."""
     for j in range(point.shape[1]):
         same = True
         for c in range(3):
             if point[c, j] != start_point[c, j] or normal[c, j] != start_normal[c, j]:
                 same = False
         still[j] = same
-        if not same:
-            continue
-        count += 1
-        px = start_point[0, j] + 0.5 * (point[0, j] - start_point[0, j])
-        py = start_point[1, j] + 0.5 * (point[1, j] - start_point[1, j])
-        pz = start_point[2, j] + 0.5 * (point[2, j] - start_point[2, j])
-        nx = start_normal[0, j] + 0.5 * (normal[0, j] - start_normal[0, j])
-        ny = start_normal[1, j] + 0.5 * (normal[1, j] - start_normal[1, j])
-        nz = start_normal[2, j] + 0.5 * (normal[2, j] - start_normal[2, j])
-        size = math.sqrt(nx * nx + ny * ny + nz * nz)
-        if size < 1e-12:
-            size = 1e-12
-        still_point[0, j], still_point[1, j], still_point[2, j] = px, py, pz
-        still_normal[0, j], still_normal[1, j], still_normal[2, j] = nx / size, ny / size, nz / size
-    return count
+        if same:
+            px, py, pz, nx, ny, nz = _slid_plane(point, normal, start_point, start_normal, j, 0.5)
+            still_point[0, j], still_point[1, j], still_point[2, j] = px, py, pz
+            still_normal[0, j], still_normal[1, j], still_normal[2, j] = nx, ny, nz
 
 
 def _sphere(x, nodes, centre, radius, bulge, scale, peak, cap_deg, sag, slacken, rest, slack,
@@ -344,8 +336,9 @@ def substep_kernel():
         # IEEE division (no zero-divisor check, the guarded divisor is >= 1e-12): lets the spring loop vectorise
         fast = numba.njit(cache=folder is not None, nogil=True, boundscheck=False, error_model="numpy")
         compiled = fast(_calling(_substeps, {"_spring_forces": fast(_spring_forces)}))
-        _STATE["half_space"], _STATE["sphere"] = jit(_half_space), jit(_sphere)
-        _STATE["still_planes"] = jit(_still_planes)
+        slid_plane = {"_slid_plane": jit(_slid_plane)}
+        _STATE["half_space"], _STATE["sphere"] = jit(_calling(_half_space, slid_plane)), jit(_sphere)
+        _STATE["still_planes"] = jit(_calling(_still_planes, slid_plane))
         _warm_up(compiled)
     except Exception as error:            # no numba, an unsupported numpy, a broken LLVM: the numpy path
         _STATE["error"] = f"{type(error).__name__}: {error}"
