@@ -87,8 +87,15 @@ class SkinRecord:
 
     @property
     def driven(self) -> bool:
-        """A head fitted to an artist's mesh: it has a ring of driven (``kinematic``) nodes."""
+        """It has a ring of driven (``kinematic``) nodes (a head fitted to an artist's mesh with more than a
+        face: a face-only mesh is simulated to its border and has none)."""
         return self.kinematic is not None and bool(np.any(self.kinematic))
+
+    @property
+    def fitted(self) -> bool:
+        """A head fitted to an artist's mesh (its record says which nodes are driven, perhaps none), not the
+        template's own skin: what the fitted heads' skin-guard rules go by (``face.network._bone_guard``)."""
+        return self.kinematic is not None
 
 
 @dataclass
