@@ -10,9 +10,10 @@ from scipy.spatial import cKDTree
 
 from .errors import UserError
 
-__all__ = ["unique_edges", "edge_length_graph", "face_normals", "triangle_normals", "vertex_normals", "vertex_areas",
-           "boundary_edge_flags", "closest_points_on_triangles", "closest_points", "centroid_tree", "mirror_map",
-           "winding_number", "checked_mesh", "MAX_VERTICES", "MAX_TRIANGLES", "similarity_transform"]
+__all__ = ["unique_edges", "median_edge_length", "edge_length_graph", "face_normals", "triangle_normals",
+           "vertex_normals", "vertex_areas", "boundary_edge_flags", "closest_points_on_triangles", "closest_points",
+           "centroid_tree", "mirror_map", "winding_number", "checked_mesh", "MAX_VERTICES", "MAX_TRIANGLES",
+           "similarity_transform"]
 
 MAX_VERTICES = 5_000_000
 MAX_TRIANGLES = 10_000_000
@@ -31,6 +32,11 @@ def unique_edges(faces: np.ndarray, return_counts: bool = False):
     keys, counts = np.unique(e[:, 0] * base + e[:, 1], return_counts=True)
     edges = np.stack([keys // base, keys % base], axis=1)
     return (edges, counts) if return_counts else edges
+
+
+def median_edge_length(vertices: np.ndarray, edges: np.ndarray) -> float:
+    """The median length of ``edges`` (E, 2) over ``vertices`` (the mesh's own scale; NaN for no edges)."""
+    return float(np.median(np.linalg.norm(vertices[edges[:, 1]] - vertices[edges[:, 0]], axis=1)))
 
 
 def edge_length_graph(vertices: np.ndarray, edges: np.ndarray):

@@ -348,6 +348,6 @@ def smoothing_operator(skin: SkinMesh, reference_edge: float = 0.0037):
     keep |= skin.group("lip_inner")
     mix = np.where(keep, 0.0, 0.5)
     operator = sparse.diags(1.0 - mix) + sparse.diags(mix / np.maximum(degree, 1)) @ adjacency
-    length = np.median(np.linalg.norm(skin.vertices[edges[:, 1]] - skin.vertices[edges[:, 0]], axis=1))
+    length = geometry.median_edge_length(skin.vertices, edges)
     passes = int(max(1, round(3 * (reference_edge / length) ** 2)))
     return operator.tocsr(), passes

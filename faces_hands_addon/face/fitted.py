@@ -45,7 +45,7 @@ from ..core.errors import UserError
 from ..core.rig import write_rig_archive
 from . import FITTED_FACE_RIG_FORMAT
 from .mesh_template import network_template
-from .network import LEDGE_DOWN, SkinMaterial
+from .network import SkinMaterial, under_ledge
 from .persistence import read_saved_rig, restore_state, saved_state
 from .rig import FaceRig
 from .skull_fit import similarity_transform
@@ -214,7 +214,7 @@ class FittedFaceRig(FaceRig):
 
     def __init__(self, head: FittedHead, material: SkinMaterial | None = None) -> None:
         super().__init__(head.template, material)
-        self.face.bone_guard.keep_own_bones(ledge=LEDGE_DOWN)
+        self.face.bone_guard.keep_own_bones(refuse=under_ledge)
         self.fitted = head
         self.head_to_mesh = head.head_to_mesh.copy()
         self.warnings = list(head.warnings)

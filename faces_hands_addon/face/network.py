@@ -119,8 +119,8 @@ class SliverTies:
         vertices, faces = np.asarray(vertices, np.float64), np.asarray(faces, np.int64)
         if height is None:
             edges = geometry.unique_edges(faces)
-            lengths = np.linalg.norm(vertices[edges[:, 1]] - vertices[edges[:, 0]], axis=1)
-            height = min(SLIVER_HEIGHT, SLIVER_FRACTION * float(np.median(lengths))) if len(lengths) else SLIVER_HEIGHT
+            height = min(SLIVER_HEIGHT, SLIVER_FRACTION * geometry.median_edge_length(vertices, edges)) \
+                if len(edges) else SLIVER_HEIGHT
         distance, share = np.full((len(faces), 3), np.inf), np.zeros((len(faces), 3))
         for k in range(3):
             apex, start, end = faces[:, k], faces[:, (k + 1) % 3], faces[:, (k + 2) % 3]
@@ -274,6 +274,14 @@ def _masses(pair: np.ndarray, edges: np.ndarray, k_stiff: np.ndarray, material: 
     return masses, material.damping_ratio * 2.0 * np.sqrt(pair * masses)
 
 
+def under_ledge(bone_normal: np.ndarray, skin_normal: np.ndarray) -> np.ndarray:
+    """Which nodes hang below a ledge (bool (N,); normals (N, 3) each, rest frame): skin facing forward or
+    sideways whose closest bone faces down (MakeHuman's brow under the orbit's roof, bone normal z -0.98).
+    Rising, it slides over the rim, not into it: a fitted head's skull guard holds no such node, neither at
+    build (:func:`_bone_guard`) nor when it re-anchors a plane (``BoneHalfSpaceGuard.keep_own_bones``)."""
+    return (bone_normal[:, 2] < -LEDGE_DOWN) & (skin_normal[:, 2] > -0.5)
+
+
 def _bone_guard(template: HeadTemplate, lid_weight: np.ndarray) -> BoneHalfSpaceGuard:
     """Skin outside the mouth stays outside skull and jaw (3.1.2, Fig. 3.4); each node's rest height over its
     bone's tangent plane sets its clearance. On a fitted head only skin lying over its bone is held."""
@@ -287,9 +295,7 @@ def _bone_guard(template: HeadTemplate, lid_weight: np.ndarray) -> BoneHalfSpace
         # opening of the transferred skull (SOMA's lower brow: the orbit's roof, 5 mm above it, facing down),
         # not on the bone; that plane held the brow down when it rose (browOuterUp folded)
         guarded &= np.einsum("ij,ij->i", skin.normals, anchoring.bone_normal) > OVER_BONE
-        # skin facing forward or sideways whose closest bone faces down hangs below a ledge (MakeHuman's
-        # brow under the orbit's roof, bone normal z -0.98): rising, it slides over the rim, not into it
-        guarded &= ~((anchoring.bone_normal[:, 2] < -LEDGE_DOWN) & (skin.normals[:, 2] > -0.5))
+        guarded &= ~under_ledge(anchoring.bone_normal, skin.normals)
     index = np.flatnonzero(guarded)
     clearance = np.minimum(0.0015, 0.5 * plane_height[index])
     guard = BoneHalfSpaceGuard(index, anchoring.bone_point[index].T, anchoring.bone_normal[index].T,

@@ -24,7 +24,7 @@ from scipy import sparse
 from scipy.sparse.csgraph import dijkstra
 
 from ..core.errors import UserError
-from ..core.geometry import edge_length_graph, unique_edges
+from ..core.geometry import edge_length_graph, median_edge_length, unique_edges
 from ..core.presets import NUMBER, PresetFormat, read_preset, register_format
 
 __all__ = ["SEGMENTS_FORMAT", "ROOT", "load_segment_preset", "segment_masks", "hierarchy_order",
@@ -119,7 +119,7 @@ class SegmentBlender:
         self.adjacency = sparse.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
         self.degree = np.asarray(self.adjacency.sum(axis=1)).ravel()
         if levels is None:
-            spacing = float(np.median(np.linalg.norm(vertices[edges[:, 0]] - vertices[edges[:, 1]], axis=1)))
+            spacing = median_edge_length(vertices, edges)
             rings = max(width / max(spacing, 1e-12), 1.0)
             levels = int(np.clip(np.ceil(np.log2(rings + 1.0)), 1, 6))
         self.levels = levels

@@ -57,11 +57,11 @@ class BoneHalfSpaceGuard:
         self._surfaces = None
         self._packed = None               # the surfaces' grids for the compiled refresh
         self._own = None
-        self._ledge = None
+        self._refuse = None
         self._initial = (self.local_point.copy(), self.local_normal.copy(), self.bone.copy())
         self._still = None                # this frame's still planes for the compiled guard (_still_planes)
 
-    def keep_own_bones(self, ledge: float | None = None) -> None:
+    def keep_own_bones(self, refuse=None) -> None:
         """Guard every node against its *own* bone only (the bone it has now), and re-anchor its plane on the
         exact closest point of that bone only once the node has slid over the bone, measured in the bone's
         own frame (:meth:`refresh`).
@@ -76,12 +76,12 @@ class BoneHalfSpaceGuard:
         the node's own rest place outside (a node lagging behind its bone over a concave part of it would
         otherwise get a plane across its way back). Needs :meth:`attach_bone_surfaces` with ``exact``.
 
-        ``ledge``: a new plane whose (rest-frame) normal points down more than this (``z < -ledge``) is the
-        underside of a ledge (the orbit's roof); skin that does not face down (``facing`` z > -0.5) rising
-        under it slides over the rim, so such a plane is refused and the node keeps its plane, as the build
-        leaves such skin unguarded (``face.network.LEDGE_DOWN``)."""
+        ``refuse(normal, facing)`` (rest-frame plane normals and the skin's ``facing`` normals, (M, 3) each ->
+        bool (M,)): new planes refused on top of those tests; the node keeps its plane (a fitted head passes
+        ``face.network.under_ledge``, the rule its build guards by: skin rising under the orbit's roof slides
+        over the rim, not into it)."""
         self._own = self.bone.copy()
-        self._ledge = ledge
+        self._refuse = refuse
 
     def reset(self) -> None:
         """Back to the planes given at construction (and, with surfaces, to the rest anchoring)."""
@@ -307,8 +307,8 @@ class BoneHalfSpaceGuard:
             ok = np.einsum("ij,ij->i", self._rest[:, mine].T - point, normal) >= self.clearance[mine]
             if self._facing is not None:
                 ok &= np.einsum("ij,ij->i", normal @ matrix[:3, :3].T, self._facing[:, mine].T) > 0.2
-                if self._ledge is not None:
-                    ok &= ~((normal[:, 2] < -self._ledge) & (self._facing[2, mine] > -0.5))
+                if self._refuse is not None:
+                    ok &= ~self._refuse(normal, self._facing[:, mine].T)
             self.local_point[:, mine[ok]], self.local_normal[:, mine[ok]] = point[ok].T, normal[ok].T
         if self._last is not None and len(active):
             self._last[:, active] = local[:, active]

@@ -1,13 +1,14 @@
-"""Re-anchoring a fitted head's bone guard (physics/collision.py ``keep_own_bones(ledge=...)``): a plane on
-the underside of a ledge is refused for skin that does not face down, as the build leaves such skin
-unguarded (face/network.py ``LEDGE_DOWN``)."""
+"""Re-anchoring a fitted head's bone guard (physics/collision.py ``keep_own_bones(refuse=...)``): with the
+fitted heads' rule (face/network.py ``under_ledge``) a plane on the underside of a ledge is refused for skin
+that does not face down, as the build leaves such skin unguarded."""
 import numpy as np
 import pytest
 
+from faces_hands_addon.face.network import under_ledge
 from faces_hands_addon.physics import BoneHalfSpaceGuard
 
 
-def _guard_under_a_ledge(ledge, facing):
+def _guard_under_a_ledge(refuse, facing):
     """One node 5 mm under a ledge whose underside (z = 0) faces down; its first plane faces forward."""
     grid = np.stack(np.meshgrid(np.linspace(-0.02, 0.02, 9), np.linspace(-0.02, 0.02, 9)), -1).reshape(-1, 2)
     vertices = np.column_stack([grid, np.zeros(len(grid))])
@@ -22,18 +23,18 @@ def _guard_under_a_ledge(ledge, facing):
     facing = np.asarray(facing, np.float64).reshape(3, 1)
     guard.attach_bone_surfaces([(vertices, normals)], exact=exact, rest=rest.copy(),
                                facing=facing / np.linalg.norm(facing))
-    guard.keep_own_bones(ledge=ledge)
+    guard.keep_own_bones(refuse=refuse)
     guard.set_bone_transforms([np.eye(4)])
     return guard, rest
 
 
-@pytest.mark.parametrize("ledge, facing, refused", [
-    (0.9, [0.0, -0.8, -0.4], True),           # forward-facing brow rising under the orbit's roof
+@pytest.mark.parametrize("refuse, facing, refused", [
+    (under_ledge, [0.0, -0.8, -0.4], True),           # forward-facing brow rising under the orbit's roof
     (None, [0.0, -0.8, -0.4], False),         # without the rule the roof's plane is taken
-    (0.9, [0.0, -0.3, -0.95], False),         # skin facing down is the ledge's own underside: guarded
+    (under_ledge, [0.0, -0.3, -0.95], False),         # skin facing down is the ledge's own underside: guarded
 ])
-def test_a_ledge_underside_is_refused_for_skin_that_does_not_face_down(ledge, facing, refused):
-    guard, rest = _guard_under_a_ledge(ledge, facing)
+def test_a_ledge_underside_is_refused_for_skin_that_does_not_face_down(refuse, facing, refused):
+    guard, rest = _guard_under_a_ledge(refuse, facing)
     positions = rest.copy()
     positions[0, 0] += 0.002                   # slid 2 mm: re-anchored on the exact closest point
     guard.refresh(positions)
