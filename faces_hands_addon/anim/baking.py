@@ -60,11 +60,16 @@ def _settled_in_order(rig: Rig, value_list: Iterable[dict], settle_time: float,
     """The settled pose of each control dict of ``value_list``, in order. A rig with ``worker_copy()``
     settles the shapes the cache does not hold on :data:`SETTLE_THREADS` threads, each on its own copy
     (the rig itself stays free for the caller); a settle starts from rest, so each shape is byte-identical
-    to the one settled alone. Closing the generator early waits for the settles under way."""
+    to the one settled alone, and a control dict met again is settled once. Closing the generator early
+    waits for the settles under way."""
     threads = min(SETTLE_THREADS, os.cpu_count() or 1) if hasattr(rig, "worker_copy") else 1
     if threads <= 1:
+        settled: dict[tuple, Pose] = {}
         for values in value_list:
-            yield _settled(rig, values, settle_time, cache)
+            key = _control_key(values)
+            if key not in settled:
+                settled[key] = _settled(rig, values, settle_time, cache)
+            yield _copied(settled[key])
         return
     copies: queue.SimpleQueue = queue.SimpleQueue()
     for _ in range(threads):
@@ -78,15 +83,21 @@ def _settled_in_order(rig: Rig, value_list: Iterable[dict], settle_time: float,
             copies.put(worker)
 
     pending: deque = deque()
+    submitted: dict[tuple, Future] = {}         # a control dict met again settles once (the same bytes)
     with ThreadPoolExecutor(threads, thread_name_prefix="fh-settle") as pool:
         try:
             for values in value_list:
+                same = submitted.get(_control_key(values))
+                if same is not None:
+                    pending.append((None, False, same))
+                    continue
                 place, pose = cache.lookup(rig, {BASE_LAYER: values}, settle_time, SETTLE_DT) if cache else (None, None)
                 if pose is None:
                     future = pool.submit(settle, values)
                 else:
                     future = Future()
                     future.set_result(pose)
+                submitted[_control_key(values)] = future
                 pending.append((place, pose is None, future))
                 while len(pending) > 2 * threads:
                     yield _collect(pending.popleft(), cache)
@@ -96,12 +107,23 @@ def _settled_in_order(rig: Rig, value_list: Iterable[dict], settle_time: float,
             pool.shutdown(wait=True, cancel_futures=True)
 
 
+def _control_key(values: dict) -> tuple:
+    """Equal control dicts give equal keys (a settle starts from rest: equal dicts settle to equal bytes)."""
+    return tuple(sorted(values.items()))
+
+
 def _collect(entry, cache: ShapeCache | None) -> Pose:
+    """The pose of a pending settle (each call its own arrays: a shape settled once may be yielded twice)."""
     place, computed, future = entry
     pose = future.result()
     if computed and cache is not None:
         cache.store(place, pose)
-    return pose
+    return _copied(pose)
+
+
+def _copied(pose: Pose) -> Pose:
+    return Pose({role: array.copy() for role, array in pose.positions.items()},
+                {role: matrix.copy() for role, matrix in pose.transforms.items()})
 
 
 def basis_shapes(rig: Rig, settle_time: float = 1.5, cache: ShapeCache | None = None) -> Iterator[BakedShape]:

@@ -299,9 +299,8 @@ class LeapfrogIntegrator:
                 run_end = index                      # the Euler start has its own factors
             inverse_mass, decay, kick = self._factors(dt)
             self.started = True
-            compiled(net.positions, self.velocity, net.force, start, end, sp.rest, sp.k_soft, net._knee,
-                     net._k_extra, net._k_yield, net._has_yield, net._min_length, att_node, att_per_node,
-                     net._att_two_c,
+            compiled(net.positions, self.velocity, net.force, start, end, sp.rest, *net.kernel_materials,
+                     net._has_yield, att_node, att_per_node, net._att_two_c,
                      net.attachment_pull, start_pull, delta_pull, fast, kin_index, start_driven,
                      delta_driven, driven is not None, inverse_mass, decay, kick, self._free, dt, index,
                      run_end - index + 1, substeps, *self._spring_scratch)

@@ -67,7 +67,7 @@ def compile_seconds() -> float | None:
     return _STATE["compile_s"]
 
 
-def _substeps(x, v, force, s_start, s_end, rest, k_soft, knee, k_extra, k_yield, has_yield, min_length,
+def _substeps(x, v, force, s_start, s_end, rest, material, materials, has_yield,
               att_node, att_per_node, att_two_c, pull, start_pull, delta_pull, interp_pull,
               kin_index, start_driven, delta_driven, interp_driven,
               inverse_mass, decay, kick, free, dt, first, count, substeps, diff,
@@ -90,8 +90,7 @@ def _substeps(x, v, force, s_start, s_end, rest, k_soft, knee, k_extra, k_yield,
                 k = kin_index[j]
                 for c in range(3):
                     x[c, k] = start_driven[c, j] + fraction * delta_driven[c, j]
-        _spring_forces(x, force, s_start, s_end, rest, k_soft, knee, k_extra, k_yield, has_yield, min_length,
-                       diff, scale)
+        _spring_forces(x, force, s_start, s_end, rest, material, materials, has_yield, diff, scale)
         if att_per_node:
             for c in range(3):
                 for i in range(nodes):
@@ -112,7 +111,7 @@ def _substeps(x, v, force, s_start, s_end, rest, k_soft, knee, k_extra, k_yield,
                 x[c, i] += dt * velocity
 
 
-def _spring_forces(x, force, s_start, s_end, rest, k_soft, knee, k_extra, k_yield, has_yield, min_length, diff,
+def _spring_forces(x, force, s_start, s_end, rest, material, materials, has_yield, diff,
                    scale):  # pragma: no cover - compiled
     """The springs' forces on every node (``force`` (3, N), overwritten) in three passes over the scratch
     ``diff`` (3, S) and ``scale`` (S,): gather the edge vectors (a spring's three axes at once: its two
@@ -120,7 +119,14 @@ def _spring_forces(x, force, s_start, s_end, rest, k_soft, knee, k_extra, k_yiel
     gathers, which the compiler vectorises), then the forces scattered in spring order (the same sums, in
     the same order, as one pass). In the scatter the start node's sums stay in registers while consecutive
     springs share it (the network lists its springs by start node): the same additions in the same order,
-    without a store and a reload per spring; any order of springs gives the same sums."""
+    without a store and a reload per spring; any order of springs gives the same sums.
+
+    A spring's constants come from its ``material`` row of ``materials`` (``SpringNetwork.kernel_materials``:
+    soft constant, stiff extra, compression change, strain threshold, shortest-length ratio; the knee and
+    the guarded divisor are formed here as the network forms them, the same bytes). A face has three
+    materials: one byte a spring instead of five float64 arrays, so two settles side by side keep their
+    springs in the shared cache. Up to four materials are picked by comparison (the loop stays vectorised);
+    more are read from the table."""
     nodes = x.shape[1]
     springs = s_start.shape[0]
     for c in range(3):
@@ -132,19 +138,24 @@ def _spring_forces(x, force, s_start, s_end, rest, k_soft, knee, k_extra, k_yiel
         diff[0, s] = x[0, b] - x[0, a]
         diff[1, s] = x[1, b] - x[1, a]
         diff[2, s] = x[2, b] - x[2, a]
-    for s in range(springs):
-        dx = diff[0, s]
-        dy = diff[1, s]
-        dz = diff[2, s]
-        length = math.sqrt(dx * dx + dy * dy + dz * dz)
-        stretch = length - rest[s]
-        over = stretch - knee[s]
-        extra = (over if over > 0.0 else 0.0) * k_extra[s]
-        if has_yield:
-            extra = extra + (stretch if stretch < 0.0 else 0.0) * k_yield[s]
-        magnitude = stretch * k_soft[s] + extra
-        shortest = min_length[s]
-        scale[s] = magnitude / (shortest if length < shortest else length)
+    if materials.shape[0] == 4:
+        # the table read into locals first: the loop's stores could alias it, so it would be read again per spring
+        soft0, soft1, soft2, soft3 = materials[0, 0], materials[1, 0], materials[2, 0], materials[3, 0]
+        extra0, extra1, extra2, extra3 = materials[0, 1], materials[1, 1], materials[2, 1], materials[3, 1]
+        yield0, yield1, yield2, yield3 = materials[0, 2], materials[1, 2], materials[2, 2], materials[3, 2]
+        knee0, knee1, knee2, knee3 = materials[0, 3], materials[1, 3], materials[2, 3], materials[3, 3]
+        ratio0, ratio1, ratio2, ratio3 = materials[0, 4], materials[1, 4], materials[2, 4], materials[3, 4]
+        for s in range(springs):
+            k = material[s]
+            scale[s] = _biphasic(diff[0, s], diff[1, s], diff[2, s], rest[s], has_yield,
+                                 _pick(k, soft0, soft1, soft2, soft3), _pick(k, extra0, extra1, extra2, extra3),
+                                 _pick(k, yield0, yield1, yield2, yield3), _pick(k, knee0, knee1, knee2, knee3),
+                                 _pick(k, ratio0, ratio1, ratio2, ratio3))
+    else:
+        for s in range(springs):
+            k = material[s]
+            scale[s] = _biphasic(diff[0, s], diff[1, s], diff[2, s], rest[s], has_yield, materials[k, 0],
+                                 materials[k, 1], materials[k, 2], materials[k, 3], materials[k, 4])
     current = -1
     ax = ay = az = 0.0
     for s in range(springs):
@@ -177,6 +188,26 @@ def _spring_forces(x, force, s_start, s_end, rest, k_soft, knee, k_extra, k_yiel
         force[0, current] = ax
         force[1, current] = ay
         force[2, current] = az
+
+
+def _pick(k, first, second, third, fourth):  # pragma: no cover - compiled
+    """Row ``k`` (0-3) of a four-row column, by comparison (vectorises, unlike an indexed read)."""
+    return first if k == 0 else (second if k == 1 else (third if k == 2 else fourth))
+
+
+def _biphasic(dx, dy, dz, rest, has_yield, k_soft, k_extra, k_yield, threshold,
+              ratio):  # pragma: no cover - compiled
+    """``f / l`` of one spring with edge vector ``(dx, dy, dz)`` (3.1.2 biphasic law, as
+    ``SpringNetwork.forces``): knee ``threshold * rest``, divisor at least ``max(rest * ratio, 1e-12)``."""
+    length = math.sqrt(dx * dx + dy * dy + dz * dz)
+    stretch = length - rest
+    over = stretch - threshold * rest
+    extra = (over if over > 0.0 else 0.0) * k_extra
+    if has_yield:
+        extra = extra + (stretch if stretch < 0.0 else 0.0) * k_yield
+    magnitude = stretch * k_soft + extra
+    shortest = max(rest * ratio, 1e-12)
+    return magnitude / (shortest if length < shortest else length)
 
 
 def _half_space(x, v, nodes, point, normal, start_point, start_normal, interpolate, fraction,
@@ -335,7 +366,9 @@ def substep_kernel():
         jit = numba.njit(cache=folder is not None, nogil=True, boundscheck=False)
         # IEEE division (no zero-divisor check, the guarded divisor is >= 1e-12): lets the spring loop vectorise
         fast = numba.njit(cache=folder is not None, nogil=True, boundscheck=False, error_model="numpy")
-        compiled = fast(_calling(_substeps, {"_spring_forces": fast(_spring_forces)}))
+        inline = numba.njit(nogil=True, boundscheck=False, error_model="numpy", inline="always")
+        law = {"_pick": inline(_pick), "_biphasic": inline(_biphasic)}
+        compiled = fast(_calling(_substeps, {"_spring_forces": fast(_calling(_spring_forces, law))}))
         slid_plane = {"_slid_plane": jit(_slid_plane)}
         _STATE["half_space"], _STATE["sphere"] = jit(_calling(_half_space, slid_plane)), jit(_sphere)
         _STATE["still_planes"] = jit(_calling(_still_planes, slid_plane))
@@ -389,8 +422,8 @@ def _warm_up(compiled) -> None:
     one = np.zeros(2)
     index = np.zeros(1, np.int64)
     small = np.zeros(1, np.int32)               # the integrator passes its node indices as int32
-    compiled(f3.copy(), f3.copy(), f3.copy(), small, small + 1, one[:1], one[:1], one[:1], one[:1], one[:1],
-             False, one[:1] + 1.0, np.zeros(0, np.int32), False, np.zeros(0), np.zeros((3, 0)), np.zeros((3, 0)),
+    compiled(f3.copy(), f3.copy(), f3.copy(), small, small + 1, one[:1], np.zeros(1, np.uint8), np.zeros((4, 5)),
+             False, np.zeros(0, np.int32), False, np.zeros(0), np.zeros((3, 0)), np.zeros((3, 0)),
              np.zeros((3, 0)), False, np.zeros(0, np.int32), np.zeros((3, 0)), np.zeros((3, 0)), False,
              one + 1.0, one + 1.0, one, one + 1.0, 0.01, 1, 1, 1, np.zeros((3, 1)), np.zeros(1))
     half_space, sphere, still_planes = _STATE["half_space"], _STATE["sphere"], _STATE["still_planes"]

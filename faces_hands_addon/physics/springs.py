@@ -117,6 +117,19 @@ class Attachments:
         return int(self.node.shape[0])
 
 
+def _materials(k_soft: np.ndarray, k_extra: np.ndarray, k_yield: np.ndarray, threshold: np.ndarray,
+               ratio: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The springs' constants as the fused kernel reads them: each spring's material (S,) and the table of
+    distinct materials (M, 5): soft constant, stiff extra, compression change, strain threshold, shortest-length
+    ratio (rows equal bit for bit; a table of at most four rows is padded to four, the kernel's fast case)."""
+    columns = np.ascontiguousarray(np.stack([k_soft, k_extra, k_yield, threshold, ratio], axis=1), np.float64)
+    bits, material = np.unique(columns.view(np.int64), axis=0, return_inverse=True)
+    table = bits.view(np.float64).reshape(-1, 5)
+    if len(table) < 4:
+        table = np.concatenate([table, np.zeros((4 - len(table), 5))])
+    return material.reshape(-1).astype(np.uint8 if len(table) <= 256 else np.int32), np.ascontiguousarray(table)
+
+
 class SpringNetwork:
     """Nodes, masses, springs and attachments; computes the total spring force on every node.
 
@@ -173,6 +186,8 @@ class SpringNetwork:
         self._k_extra = springs.k_stiff - springs.k_soft
         self._k_yield = springs.k_compress - springs.k_soft
         self._has_yield = bool(s and np.any(self._k_yield != 0))
+        self.kernel_materials = _materials(springs.k_soft, self._k_extra, self._k_yield, springs.strain_threshold,
+                                           ratio)
         a = self.attachments.count
         self._att_delta = np.empty((3, a))
         self._att_pos = np.empty((3, a))

@@ -73,3 +73,21 @@ def test_shapes_settled_on_two_threads_are_the_ones_settled_one_by_one(rig, tmp_
     again = ShapeCache(tmp_path)
     assert _arrays(baking.expression_shapes(rig, expressions, cache=again))[:5] == alone[:5]
     assert (again.hits, again.misses) == (5, 0)
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_an_expression_met_twice_is_settled_once(rig, tmp_path, monkeypatch, threads):
+    """Equal control dicts (the visemes DD and nn) settle once: the same bytes, each shape its own arrays,
+    one cache entry."""
+    monkeypatch.setattr(baking, "SETTLE_THREADS", threads)
+    settled = []
+    plain = type(rig).settled
+    monkeypatch.setattr(type(rig), "settled", lambda self, *a, **k: settled.append(1) or plain(self, *a, **k))
+    expressions = dict(EXPRESSIONS, again=dict(EXPRESSIONS["open"]))
+    cache = ShapeCache(tmp_path)
+    shapes = list(baking.expression_shapes(rig, expressions, cache=cache))
+    assert len(settled) == 2 and (cache.hits, cache.misses) == (0, 2)
+    assert [s.name for s in shapes] == ["open", "smile", "again"]
+    first, twin = shapes[0].pose.positions["skin"], shapes[2].pose.positions["skin"]
+    assert np.array_equal(first, twin) and first is not twin
+    assert not np.array_equal(first, shapes[1].pose.positions["skin"])

@@ -76,6 +76,47 @@ def test_fused_kernel_matches_numpy_with_attachments_in_any_order(attached):
     assert np.abs(ref[1] - fused[1]).max() < 1e-6
 
 
+@pytest.mark.parametrize("materials", [1, 3, 4, 5, 300])
+def test_fused_kernel_matches_numpy_with_any_number_of_spring_materials(materials):
+    """The kernel reads a spring's constants from its material: up to four materials by comparison (the
+    face has three), more from the table; per-spring stiffness and thresholds drawn from ``materials``
+    distinct values give the numpy path's motion."""
+    runs = []
+    for backend in ("numpy", "numba"):
+        net = grid(n=12)
+        sp = net.springs
+        kind = np.random.default_rng(materials).integers(0, materials, sp.count)
+        soft = np.linspace(10.0, 30.0, materials)[kind]
+        springs = SpringSet(sp.start, sp.end, sp.rest, soft, soft * np.linspace(1.0, 5.0, materials)[kind],
+                            np.linspace(0.05, 0.2, materials)[kind], soft * np.linspace(0.2, 1.0, materials)[kind])
+        network = SpringNetwork(net.positions.T, 1e-3, springs, net.attachments)
+        material, table = network.kernel_materials
+        assert len(table) == max(4, len(np.unique(kind))) and material.max() == len(np.unique(kind)) - 1
+        integrator = LeapfrogIntegrator(network, 0.02)
+        integrator.backend = backend
+        start = network.positions.copy()
+        offset = np.array([[0.002], [0.003], [-0.001]])
+        for _ in range(10):
+            integrator.advance(1 / 24, anchor=network.attachments.anchor + offset,
+                               mirror=network.attachments.mirror + offset)
+        runs.append(network.positions.copy())
+    assert np.abs(runs[0] - runs[1]).max() < TOLERANCE_M and np.abs(runs[0] - start).max() > 1e-4
+
+
+def test_spring_materials_rebuild_every_springs_constants_bit_for_bit():
+    """What the kernel forms from a spring's material is what the numpy path reads: the same bytes."""
+    from faces_hands_addon.face.rig import build_default_rig
+    net = build_default_rig("default").face.network
+    material, table = net.kernel_materials
+    assert material.dtype == np.uint8 and len(np.unique(material)) == 3       # skin, lid/lip, stiff-less lining
+    rows = table[material]
+    sp = net.springs
+    assert np.array_equal(rows[:, 0], sp.k_soft) and np.array_equal(rows[:, 1], net._k_extra)
+    assert np.array_equal(rows[:, 2], net._k_yield)
+    assert np.array_equal(rows[:, 3] * sp.rest, net._knee)
+    assert np.array_equal(np.maximum(sp.rest * rows[:, 4], 1e-12), net._min_length)
+
+
 def test_fused_kernel_matches_on_the_default_face():
     from faces_hands_addon.face.rig import build_default_rig
     rig = build_default_rig("default")
