@@ -133,9 +133,10 @@ def _materials(k_soft: np.ndarray, k_extra: np.ndarray, k_yield: np.ndarray, thr
 class SpringNetwork:
     """Nodes, masses, springs and attachments; computes the total spring force on every node.
 
-    Built from ``(N, 3)`` positions; stored internally as ``self.positions`` of shape ``(3, N)`` float64. ``kinematic`` marks pinned/driven nodes: they feel forces but do not
-    integrate them; the caller moves them (3.1.2: "static mass points" on bone and muscle).
-    """
+    Built from ``(N, 3)`` positions; stored internally as ``self.positions`` of shape ``(3, N)`` float64.
+    ``kinematic`` marks pinned/driven nodes: they feel forces but do not integrate them; the caller moves
+    them (3.1.2: "static mass points" on bone and muscle). ``kernel_materials``: the springs' constants as
+    the fused kernel reads them (:func:`_materials`)."""
 
     def __init__(self, positions: np.ndarray, masses: np.ndarray, springs: SpringSet,
                  attachments: Attachments | None = None, kinematic: np.ndarray | None = None) -> None:
