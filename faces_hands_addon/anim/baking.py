@@ -57,19 +57,40 @@ def _settled(rig: Rig, values: dict, settle_time: float, cache: ShapeCache | Non
 
 def _settled_in_order(rig: Rig, value_list: Iterable[dict], settle_time: float,
                       cache: ShapeCache | None) -> Iterator[Pose]:
+    """The settled pose of each control dict of ``value_list``, in order. A control dict met again is settled
+    once (a settle starts from rest: equal dicts settle to equal bytes) and handed out as its own copy."""
+    values = list(value_list)
+    keys = [tuple(sorted(controls.items())) for controls in values]
+    first = {}                                      # key -> the position it first occurs at
+    for position, key in enumerate(keys):
+        first.setdefault(key, position)
+    repeated = {key for position, key in enumerate(keys) if first[key] != position}
+    distinct = _settled_each(rig, [controls for position, controls in enumerate(values)
+                                   if first[keys[position]] == position], settle_time, cache)
+    kept: dict[tuple, Pose] = {}
+    try:
+        for position, key in enumerate(keys):
+            if first[key] != position:
+                yield _copied(kept[key])
+                continue
+            pose = next(distinct)
+            if key in repeated:
+                kept[key] = _copied(pose)
+            yield pose
+    finally:
+        distinct.close()
+
+
+def _settled_each(rig: Rig, value_list: list[dict], settle_time: float,
+                  cache: ShapeCache | None) -> Iterator[Pose]:
     """The settled pose of each control dict of ``value_list``, in order. A rig with ``worker_copy()``
     settles the shapes the cache does not hold on :data:`SETTLE_THREADS` threads, each on its own copy
     (the rig itself stays free for the caller); a settle starts from rest, so each shape is byte-identical
-    to the one settled alone, and a control dict met again is settled once. Closing the generator early
-    waits for the settles under way."""
+    to the one settled alone. Closing the generator early waits for the settles under way."""
     threads = min(SETTLE_THREADS, os.cpu_count() or 1) if hasattr(rig, "worker_copy") else 1
     if threads <= 1:
-        settled: dict[tuple, Pose] = {}
         for values in value_list:
-            key = _control_key(values)
-            if key not in settled:
-                settled[key] = _settled(rig, values, settle_time, cache)
-            yield _copied(settled[key])
+            yield _settled(rig, values, settle_time, cache)
         return
     copies: queue.SimpleQueue = queue.SimpleQueue()
     for _ in range(threads):
@@ -83,21 +104,15 @@ def _settled_in_order(rig: Rig, value_list: Iterable[dict], settle_time: float,
             copies.put(worker)
 
     pending: deque = deque()
-    submitted: dict[tuple, Future] = {}         # a control dict met again settles once (the same bytes)
     with ThreadPoolExecutor(threads, thread_name_prefix="fh-settle") as pool:
         try:
             for values in value_list:
-                same = submitted.get(_control_key(values))
-                if same is not None:
-                    pending.append((None, False, same))
-                    continue
                 place, pose = cache.lookup(rig, {BASE_LAYER: values}, settle_time, SETTLE_DT) if cache else (None, None)
                 if pose is None:
                     future = pool.submit(settle, values)
                 else:
                     future = Future()
                     future.set_result(pose)
-                submitted[_control_key(values)] = future
                 pending.append((place, pose is None, future))
                 while len(pending) > 2 * threads:
                     yield _collect(pending.popleft(), cache)
@@ -107,18 +122,12 @@ def _settled_in_order(rig: Rig, value_list: Iterable[dict], settle_time: float,
             pool.shutdown(wait=True, cancel_futures=True)
 
 
-def _control_key(values: dict) -> tuple:
-    """Equal control dicts give equal keys (a settle starts from rest: equal dicts settle to equal bytes)."""
-    return tuple(sorted(values.items()))
-
-
 def _collect(entry, cache: ShapeCache | None) -> Pose:
-    """The pose of a pending settle (each call its own arrays: a shape settled once may be yielded twice)."""
     place, computed, future = entry
     pose = future.result()
     if computed and cache is not None:
         cache.store(place, pose)
-    return _copied(pose)
+    return pose
 
 
 def _copied(pose: Pose) -> Pose:
