@@ -2,10 +2,13 @@
 """The rig protocol every subsystem implements (a face, a hand, ...), and the one registry that saves and
 loads rigs of every kind.
 
-A rig is an animatable simulation: named controls (:class:`..controls.ControlSpec`), a rest pose, and
+A rig is an animatable simulation: named controls (:class:`..controls.ControlSpec`), a rest pose,
 ``step(layer_values, dt) -> Pose``, which mixes the control layers (:func:`..anim.layers.mix`, thesis
-4.3.5), advances the simulation by ``dt`` seconds and returns the pose as plain arrays. Blender code
-never looks inside a rig: it writes :class:`Pose` positions into shape keys and transforms onto objects.
+4.3.5), advances the simulation by ``dt`` seconds and returns the pose as plain arrays, and
+``settled(layer_values, max_time, dt) -> Pose``, the static shape reached from rest. :class:`Rig` lists
+exactly what the bakes, the live preview, jobs and export call (:data:`PROTOCOL_METHODS`); a rig's own
+helpers (a face's ``relax``, a hand's ``pose_joints``) stay inside its subsystem. Blender code never looks
+inside a rig: it writes :class:`Pose` positions into shape keys and transforms onto objects.
 
 Saved rigs are ``.npz`` archives (``np.savez_compressed``, never pickles) with a JSON ``meta_json`` entry
 whose ``"format"`` names the rig kind (``"faces_hands.face_rig/1"``); :func:`load_rig` dispatches on it
@@ -29,7 +32,8 @@ from .controls import ControlSpec
 from .errors import UserError
 
 __all__ = ["Pose", "Rig", "register_rig_kind", "rig_kinds", "save_rig", "load_rig", "rig_format",
-           "rig_identity", "write_rig_archive", "read_rig_archive", "load_rig_bytes", "MAX_RIG_BYTES"]
+           "rig_identity", "write_rig_archive", "read_rig_archive", "load_rig_bytes", "MAX_RIG_BYTES",
+           "PROTOCOL_METHODS"]
 
 #: refuse stored rig data that unpacks to more than this (a corrupt or hostile file)
 MAX_RIG_BYTES = 4_000_000_000
@@ -55,15 +59,29 @@ class Rig(Protocol):
 
     def control_specs(self) -> dict[str, ControlSpec]: ...
 
-    def step(self, layer_values: LayerValues, dt: float) -> Pose: ...
+    def step(self, layer_values: LayerValues, dt: float) -> Pose:
+        """Mix the layers (``anim.layers.mix``), advance one frame of ``dt`` seconds, return the pose."""
 
-    def settle(self, layer_values: LayerValues, max_time: float = 1.5, dt: float = 1 / 24) -> Pose: ...
+    def settled(self, layer_values: LayerValues, max_time: float, dt: float) -> Pose:
+        """The pose reached from rest with the mixed ``layer_values`` after at most ``max_time`` seconds
+        (a static shape: it does not depend on what the rig did before)."""
 
-    def reset(self) -> None: ...
+    def reset(self) -> None:
+        """Controls at their defaults, the simulation at rest."""
 
     def rest_pose(self) -> Pose: ...
 
+    def worker_copy(self) -> "Rig":
+        """An independent rig sharing the read-only data (bakes settle on several threads)."""
+
     def save(self, path: str | Path) -> None: ...
+
+    @classmethod
+    def load(cls, path: str | Path) -> "Rig": ...
+
+
+#: what bakes, live preview, jobs and export may call on a rig: the protocol, no more
+PROTOCOL_METHODS = ("control_specs", "step", "settled", "reset", "rest_pose", "worker_copy", "save", "load")
 
 
 _kinds: dict[str, Callable[[Path], Rig] | str] = {}

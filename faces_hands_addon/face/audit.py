@@ -245,7 +245,7 @@ def settle_expression(rig, expression: dict[str, float]) -> np.ndarray:
     positions of the simulation nodes (N, 3)."""
     rig.reset()
     rig.set_controls(expression_controls(expression, rig.control_specs()))
-    rig.settle()
+    rig.relax()
     return np.asarray(rig.face.network.positions.T, np.float64).copy()
 
 

@@ -146,7 +146,7 @@ class FaceRig:
         """The pose the face settles into from rest with the mixed ``layer_values``."""
         self.reset()
         self.set_controls(mix(layer_values, self.specs))
-        self.settle(max_time=max_time, dt=dt)
+        self.relax(max_time=max_time, dt=dt)
         return self.pose()
 
     # -- geometry handed to Blender ---------------------------------------------------------------
@@ -283,7 +283,7 @@ class FaceRig:
         self._advance(dt)
         return self.positions
 
-    def settle(self, max_time: float = 1.5, dt: float = 1 / 24, tolerance: float = 2e-4) -> np.ndarray:
+    def relax(self, max_time: float = 1.5, dt: float = 1 / 24, tolerance: float = 2e-4) -> np.ndarray:
         """Step until the skin is at rest or ``max_time`` seconds have been simulated; returns the positions.
         At rest: at least 3 frames, and no node coordinate moved more than ``tolerance * dt`` over the last
         frame (``tolerance`` m/s as a mean speed). The test is on displacement, not on the integrator's

@@ -107,7 +107,7 @@ def simulate_frames(rig, contractions: np.ndarray, dt: float, settle_first: bool
     names = rig.muscle_names
     if settle_first and len(contractions):
         rig.set_controls(dict(zip(names, contractions[0])))
-        rig.settle(1.0, dt)
+        rig.relax(1.0, dt)
     for row in contractions:
         rig.set_controls(dict(zip(names, row)))
         rig.step_frame(dt)

@@ -131,6 +131,14 @@ class HandRig:
         self._surface_key = None
         self.time = 0.0
 
+    def worker_copy(self) -> "HandRig":
+        """A rig that settles exactly as this one does (same template, side, material and photo) with a
+        simulation state of its own, at rest: :mod:`..anim.baking` settles shapes on it from another thread."""
+        copy = HandRig(self.template, self.side, self.material, self.photo)
+        copy.reset_state()
+        copy.identity = self.identity
+        return copy
+
     def step(self, layer_values: LayerValues, dt: float) -> Pose:
         """Mix the layers (4.3.5: summed, clamped to each control's range), simulate one frame of ``dt``
         seconds, return the pose."""
@@ -144,10 +152,10 @@ class HandRig:
         ``then`` is set once the hand has settled before it, and it settles again (up to ``max_time`` each)."""
         self.reset()
         self.set_controls(mix(layer_values, self.specs))
-        self.settle(max_time, dt)
+        self.relax(max_time, dt)
         for values in then:
             self.set_controls(values)
-            self.settle(max_time, dt)
+            self.relax(max_time, dt)
         return self.pose()
 
     def settled_stages(self, stages: Sequence[Mapping[str, float]], max_time: float = 2.0,
@@ -209,7 +217,7 @@ class HandRig:
         self.frame_substeps = self.hand.integrator.advance(dt)
         self.time += dt
 
-    def settle(self, max_time: float = 2.0, dt: float = 1 / 30, tolerance: float = 2e-3) -> None:
+    def relax(self, max_time: float = 2.0, dt: float = 1 / 30, tolerance: float = 2e-3) -> None:
         """Step until joints and skin are at rest (joint speed below ``tolerance`` rad/s, skin below
         ``tolerance`` m/s, at least 3 frames) or ``max_time`` seconds have passed."""
         frames = max(3, int(np.ceil(max_time / dt)))

@@ -70,3 +70,33 @@ def test_damaged_archives_are_refused(rig, tmp_path):
             core_rig.load_rig(bomb)
     finally:
         core_rig.MAX_RIG_BYTES = old
+
+
+def _rig_classes():
+    from faces_hands_addon.face.fitted import FittedFaceRig
+    from faces_hands_addon.hand.rig import HandRig
+    return [FaceRig, FittedFaceRig, HandRig]
+
+
+@pytest.mark.parametrize("cls", _rig_classes(), ids=lambda c: c.__name__)
+def test_every_rig_class_offers_exactly_the_protocol_signatures(cls):
+    """Every method the bakes, live preview, jobs and export call (core.rig.PROTOCOL_METHODS) exists on every
+    rig class with the protocol's parameter names, so a rig of rigs can stand in for any of them."""
+    import inspect
+    for name in core_rig.PROTOCOL_METHODS:
+        assert callable(getattr(cls, name, None)), f"{cls.__name__} lacks {name}"
+        wanted = list(inspect.signature(getattr(core_rig.Rig, name)).parameters)
+        have = list(inspect.signature(getattr(cls, name)).parameters)
+        assert have[:len(wanted)] == wanted, f"{cls.__name__}.{name}{tuple(have)} is not the protocol's {wanted}"
+    assert isinstance(getattr(cls, "kind", None), str)
+
+
+def test_a_hand_worker_copy_settles_like_its_original():
+    from faces_hands_addon.hand.rig import build_hand_rig
+    hand = build_hand_rig("left")
+    values = {"ctrl": {"flexor_digitorum_superficialis_index": 0.6}}
+    hand.step({"ctrl": {"extensor_digitorum_middle": 1.0}}, 1 / 30)         # state the copy must not share
+    copy = hand.worker_copy()
+    assert copy is not hand and copy.hand.network is not hand.hand.network
+    assert copy.settled(values, 0.3, 1 / 30).positions["skin"].tobytes() == \
+        hand.settled(values, 0.3, 1 / 30).positions["skin"].tobytes()

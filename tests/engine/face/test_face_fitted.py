@@ -59,7 +59,7 @@ def motion(rig, controls, time=1.2):
     rig.reset_controls()
     rig.set_controls(controls)
     rest = landmarks_of(rig, rig.rest_positions)
-    moved = landmarks_of(rig, rig.settle(time))
+    moved = landmarks_of(rig, rig.relax(time))
     width = np.linalg.norm(rest[454] - rest[234])
     return rest / width, moved / width, (moved - rest) / width
 
@@ -76,7 +76,7 @@ def test_the_mesh_is_the_skin_vertex_for_vertex(mask, rig):
     np.testing.assert_array_equal(rig.faces, mask.faces.astype(np.int32))
     rig.reset_state()
     rig.reset_controls()
-    settled = rig.settle(0.5)
+    settled = rig.relax(0.5)
     assert settled.dtype == np.float32 and settled.flags["C_CONTIGUOUS"] and settled.shape == mask.vertices.shape
     assert np.abs(settled - rig.rest_positions).max() < 1e-4 * mask.face_width   # neutral stays at rest
     # head space is human-sized; head_to_mesh is a similarity back to the mesh (1.7x, moved)
@@ -181,7 +181,7 @@ def test_full_head_keeps_scalp_ears_neck_and_shoulders_still(head, head_rig):
     rig.reset_state()
     rig.reset_controls()
     rig.set_controls({"jaw_open": 1.0, "zygomaticus_major_L": 1.0, "frontalis_inner_R": 1.0, "eyelid_close_L": 1.0})
-    positions = rig.settle(1.0)
+    positions = rig.relax(1.0)
     rest = rig.rest_positions
     width = head.face_width
     truth = head.truth
@@ -204,7 +204,7 @@ def test_settle_moves_the_whole_mesh_as_its_frames_do(head_rig):
     rig.reset_state()
     rig.reset_controls()
     rig.set_controls({"jaw_open": 1.0})
-    settled = rig.settle(0.25)                             # 6 frames (the skin is still moving)
+    settled = rig.relax(0.25)                             # 6 frames (the skin is still moving)
     rig.reset_state()
     for _ in range(6):
         stepped = rig.step_frame()
@@ -225,7 +225,7 @@ def test_settle_builds_the_mesh_positions_once(head_rig, monkeypatch):
         built.append(1)
         return positions.fget(self)
     monkeypatch.setattr(FittedFaceRig, "positions", property(counted))
-    rig.settle(0.25)                                       # 6 frames
+    rig.relax(0.25)                                       # 6 frames
     assert len(built) == 1
 
 
@@ -237,7 +237,7 @@ def test_no_skin_inside_skull_or_jaw_after_all_muscles_and_the_jaw(rig):
     rig.reset_state()
     rig.reset_controls()
     rig.set_controls({**{name: 1.0 for name in t.muscles.names}, "jaw_open": 1.0, "orbicularis_oris_protrusion": -1})
-    rig.settle(1.0)
+    rig.relax(1.0)
     positions = rig.face.network.positions.T                  # head space, the simulated nodes
     jaw = rig.rigid_transforms()["jaw"]
     jaw = np.linalg.inv(rig.head_to_mesh) @ jaw @ rig.head_to_mesh
@@ -343,7 +343,7 @@ def test_closed_mouth_and_eyes_build_with_warnings(mask, rig):
     assert "lips cannot part: no mouth opening between the lip contours" in text
     assert "left eyelids cannot open" in text and "right eyelids cannot open" in text
     closed.set_controls({"jaw_open": 1.0})
-    assert np.all(np.isfinite(closed.settle(0.5)))
+    assert np.all(np.isfinite(closed.relax(0.5)))
 
 
 def test_bad_meshes_are_refused_with_a_clear_message(mask):

@@ -20,7 +20,7 @@ def displacement(rig, controls, time=1.2):
     rig.reset_state()
     rig.reset_controls()
     rig.set_controls(controls)
-    return (rig.settle(time).astype(np.float64) - rest) * MM
+    return (rig.relax(time).astype(np.float64) - rest) * MM
 
 
 def test_zygomaticus_major_raises_the_mouth_corner_up_and_outward(rig):

@@ -21,7 +21,7 @@ def fresh(rig):
 
 def test_neutral_rig_stays_at_rest_and_outputs_blender_ready_arrays(rig):
     fresh(rig)
-    positions = rig.settle(0.5)
+    positions = rig.relax(0.5)
     assert positions.dtype == np.float32 and positions.flags["C_CONTIGUOUS"]
     assert positions.shape == (rig.template.node_count, 3)
     assert np.abs(positions - rig.rest_positions).max() < 1e-4
@@ -43,11 +43,11 @@ def test_settle_stops_when_nothing_moves_whatever_the_velocity(rig, monkeypatch)
         frames.append(dt)
         rig.face.integrator.velocity[:, 0] = 0.05
     monkeypatch.setattr(rig, "_advance", held)
-    rig.settle(1.5)
+    rig.relax(1.5)
     assert len(frames) == 3
     rig.set_controls({"jaw_open": 0.6})             # the skin moves: the settle goes on
     frames.clear()
-    rig.settle(1.5)
+    rig.relax(1.5)
     assert len(frames) > 10
 
 
@@ -76,7 +76,7 @@ def test_no_skin_node_inside_the_skull_after_a_sweep_of_full_contractions(rig):
               {**all_muscles, "jaw_yaw": 1.0, "jaw_forward": 1.0, "jaw_drop": 1.0, "orbicularis_oris_protrusion": -1}]
     for controls in sweeps:
         fresh(rig).set_controls(controls)
-        positions = rig.settle(1.0).astype(np.float64)
+        positions = rig.relax(1.0).astype(np.float64)
         jaw = rig.rigid_transforms()["jaw"]
         moved = face_nodes[np.linalg.norm(positions[face_nodes] - rest[face_nodes], axis=1) > 3e-4]
         inside = np.maximum(geometry.winding_number(skull_v, skull_f, positions[moved]),
