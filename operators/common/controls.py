@@ -20,7 +20,8 @@ from ...faces_hands_addon.core.controls import ControlSpec
 from . import fcurves
 
 __all__ = ["LAYERS", "prop_name", "data_path", "layer_prefix", "ensure_property", "ensure_controls",
-           "reset_controls", "layer_values", "available_layers", "sample_layers", "add_mixed_driver"]
+           "reset_controls", "layer_values", "available_layers", "sample_layers", "add_mixed_driver",
+           "curves_evaluate_exactly"]
 
 
 def prop_name(control: str, layer: str = BASE_LAYER) -> str:
@@ -93,7 +94,7 @@ def available_layers(obj, controls) -> set[tuple[str, str]]:
     return {(c, layer) for c in controls for layer in LAYERS if prop_name(c, layer) in keys}
 
 
-def _curves_evaluate_exactly(obj, scene) -> bool:
+def curves_evaluate_exactly(obj, scene) -> bool:
     """Can the layer F-curves be evaluated directly (the same numbers a frame change would give)? Only with
     one plain action: no NLA, full influence, replace mode, no time remapping, no drivers on the layers."""
     anim = obj.animation_data
@@ -117,17 +118,17 @@ def _curves_evaluate_exactly(obj, scene) -> bool:
 
 
 def sample_layers(obj, scene, specs: Mapping[str, ControlSpec], frames, method: str = "auto",
-                  lead: float = 0.0) -> LayerTable:
-    """Every layer of every control at ``frames``, as plain arrays a bake walks without asking Blender
-    again. F-curves are evaluated directly where that gives the same values as playing the scene
-    (``method="auto"``); otherwise (NLA, drivers, blending) or with ``method="frames"`` each frame is set
-    once and the properties read. ``lead`` (frames, may be fractional) gives each row the values that much
-    later: a simulation fed them ahead of time shows them on time despite its response delay."""
+                  lead: float = 0.0, layers=LAYERS) -> LayerTable:
+    """``layers`` of every control at ``frames`` as the scene plays them: what the artist's F-curves show,
+    for a take filled from them (``takes.take_for_bake``). F-curves are evaluated directly where that gives
+    the same values as playing the scene (``method="auto"``); otherwise (NLA, drivers, blending) or with
+    ``method="frames"`` each frame is set once and the properties read. ``lead`` (frames, may be
+    fractional) gives each row the values that much later."""
     controls = tuple(specs)
     frames = np.asarray(list(frames), dtype=np.int64)
     keys = set(obj.keys())
     values = {}
-    for layer in LAYERS:
+    for layer in layers:
         table = np.zeros((len(frames), len(controls)))
         for column, control in enumerate(controls):
             name = prop_name(control, layer)
@@ -136,10 +137,10 @@ def sample_layers(obj, scene, specs: Mapping[str, ControlSpec], frames, method: 
         values[layer] = table
     if method not in ("auto", "frames"):
         raise ValueError(f"unknown sampling method {method!r}")
-    if method == "auto" and _curves_evaluate_exactly(obj, scene):
+    if method == "auto" and curves_evaluate_exactly(obj, scene):
         bag = fcurves.existing_channelbag(obj)
         curves = {fc.data_path: fc for fc in (bag.fcurves if bag else []) if fc.array_index == 0 and not fc.mute}
-        for layer in LAYERS:
+        for layer in layers:
             for column, control in enumerate(controls):
                 curve = curves.get(data_path(control, layer))
                 if curve is not None:
@@ -151,7 +152,7 @@ def sample_layers(obj, scene, specs: Mapping[str, ControlSpec], frames, method: 
             at = float(frame) + lead
             scene.frame_set(int(np.floor(at)), subframe=float(at - np.floor(at)))
             current = layer_values(obj, controls)
-            for layer in LAYERS:
+            for layer in layers:
                 for column, control in enumerate(controls):
                     if control in current[layer]:
                         values[layer][row, column] = current[layer][control]

@@ -64,23 +64,26 @@ def expressions(preset: str) -> dict[str, dict[str, float]]:
 ANIMATION_KINDS = ("weights", "frames")
 
 
-def bake_job(context, obj, mode: str, preset: str = "all", animation: str = "weights"):
+def bake_job(context, obj, mode: str, preset: str = "all", animation: str = "weights", take=None):
     """The bake of ``mode`` (basis | expressions | animation). An animation is baked as engine-ready
     ``weights`` of the fixed target set (ARKit + visemes + emotions, whatever ``preset`` names), or as the
-    exact per-frame cache (``frames``: one key per frame, for offline renders)."""
+    exact per-frame cache (``frames``: one key per frame, for offline renders). ``take`` = (engine take,
+    start frame) bakes that take (the command line); without it, the take the rig object holds."""
     mode = mode.upper()
     if mode not in common_bake.MODES:
         raise UserError(f"unknown bake mode {mode.lower()!r}; use basis, expressions or animation")
     if animation not in ANIMATION_KINDS:
         raise UserError(f"unknown animation bake {animation!r}; use weights or frames")
     if mode == "ANIMATION" and animation == "weights":
-        return common_bake.WeightsBakeJob(context, obj, expressions(preset), EXPORT_ROLES)
-    return common_bake.BakeJob(context, obj, mode, expressions(preset) if mode != "BASIS" else None)
+        return common_bake.WeightsBakeJob.of_object(context, obj, expressions(preset), EXPORT_ROLES, take=take)
+    inputs = common_bake.bake_inputs(context, obj, take, animated=mode == "ANIMATION")
+    return common_bake.BakeJob(inputs, mode, expressions(preset) if mode != "BASIS" else None)
 
 
-def bake(context, obj, mode: str, preset: str = "all", progress=None, animation: str = "weights") -> str:
+def bake(context, obj, mode: str, preset: str = "all", progress=None, animation: str = "weights",
+         take=None) -> str:
     """Bake the face rig object ``obj`` (basis | expressions | animation) to the end; returns the report."""
-    return run_job(bake_job(context, obj, mode, preset, animation), context, progress)
+    return run_job(bake_job(context, obj, mode, preset, animation, take), context, progress)
 
 
 def export(context, obj, path: str, options: ExportOptions = ExportOptions()):

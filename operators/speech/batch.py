@@ -61,7 +61,7 @@ def _nonverbal(spec: dict):
     """(style or None, seed, emotion or None) of a take, checked: a style of the styles preset, a whole
     seed >= 0, an emotion word of the table or an activation,evaluation point."""
     from ...faces_hands_addon.behavior.styles import load_style
-    from ...faces_hands_addon.speech.performance import parse_emotion
+    from ...faces_hands_addon.performance import parse_emotion
     style = spec.get("style") or None
     if style is not None:
         load_style(style)

@@ -160,3 +160,36 @@ def test_nothing_points_outside_the_extension(code):
     offences = [f"{path.relative_to(root)}:{n}" for path in files
                 for n, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1) if pattern.search(line)]
     assert offences == []
+
+
+def _package_graph(graph: dict[str, list[str]]) -> dict[str, list[str]]:
+    """The engine's import graph collapsed to its packages (``faces_hands_addon.<package>``)."""
+    def package(name: str) -> str:
+        return ".".join(name.split(".")[:2])
+    out: dict[str, set[str]] = {}
+    for name, targets in graph.items():
+        if not name.startswith("faces_hands_addon."):
+            continue
+        out.setdefault(package(name), set()).update(
+            package(t) for t in targets if t.startswith("faces_hands_addon.") and package(t) != package(name))
+    return {name: sorted(targets) for name, targets in out.items()}
+
+
+def test_engine_packages_form_no_loop(code):
+    """Packages, not only modules: speech -> behaviour/emotion -> face -> speech was a loop of packages made of
+    modules that never imported each other in a circle. The composition of speech, behaviour and emotion
+    lives above all three (``performance``)."""
+    _, _, graph = code
+    packages = _package_graph(graph)
+    assert {"faces_hands_addon.speech", "faces_hands_addon.performance", "faces_hands_addon.emotion"} <= set(packages)
+    assert _cycles(packages) == []
+    assert "faces_hands_addon.performance" not in {t for name, targets in packages.items() for t in targets}, \
+        "nothing in the engine may import the performance package: it composes the others"
+
+
+def test_a_package_loop_would_be_found():
+    graph = {"faces_hands_addon.speech.a": ["faces_hands_addon.emotion.b"],
+             "faces_hands_addon.emotion.b": ["faces_hands_addon.face.c"],
+             "faces_hands_addon.face.c": ["faces_hands_addon.speech.d"], "faces_hands_addon.speech.d": []}
+    assert _cycles(_package_graph(graph)) == [["faces_hands_addon.emotion", "faces_hands_addon.face",
+                                               "faces_hands_addon.speech"]]
