@@ -18,10 +18,11 @@ import numpy as np
 from mathutils import Matrix
 
 from ...faces_hands_addon.core.errors import UserError
-from ..common.meshes import mesh_triangles, mesh_vertices
-from ..common.outputs import atomic_output, same_file
-from ..common.rig_store import OUTPUT_TO_LOCAL, PART_ROLE, parts
+from ..adapters.meshes import mesh_triangles, mesh_vertices
+from ..adapters.outputs import atomic_output, same_file
+from ..adapters.rig_store import OUTPUT_TO_LOCAL, PART_ROLE, parts
 from .objects import create_rig_objects
+from ...names import RIG_WARNINGS
 
 LANDMARKS_ROLE = "landmarks"
 MAX_IMPORT_BYTES = 2_000_000_000
@@ -152,7 +153,7 @@ def attach_rig(context, head, rig, world_matrix: np.ndarray, name: str | None = 
         part.matrix_parent_inverse = Matrix(to_local.tolist())
     warnings = list(getattr(rig, "warnings", []) or [])
     if warnings:
-        obj["fh_rig_warnings"] = json.dumps(warnings)
+        obj[RIG_WARNINGS] = json.dumps(warnings)
     return obj
 
 

@@ -9,11 +9,11 @@ import bpy
 import numpy as np
 
 from ...faces_hands_addon.core.errors import UserError
-from ..common import bake as common_bake
-from ..common.blendfile import open_blend
-from ..common.export import ExportOptions, export_rig, save_or_export
-from ..common.jobs import run_job
-from ..common.rig_store import find_rig
+from ..bases import bake as common_bake
+from ..adapters.blendfile import open_blend
+from ..adapters.export import ExportOptions, export_rig, save_or_export
+from ..bases.jobs import run_job
+from ..adapters.rig_store import find_rig
 from .fit import attach_rig, import_head, import_meshes
 from .jobs import BuildDefaultRigJob, FitRigJob
 from .objects import EXPORT_ROLES
@@ -94,8 +94,8 @@ def export(context, obj, path: str, options: ExportOptions = ExportOptions()):
 def _take_weights(args, progress):
     """Frames (from 0), weights and frame rate of the take ``--source`` names (rig .blend or Live Link CSV)."""
     from ...faces_hands_addon.anim.retarget import read_live_link_csv
-    from ..common.targets import animated_weights
-    from ..common.timing import scene_fps
+    from ..adapters.targets import animated_weights
+    from ..adapters.timing import scene_fps
     if Path(args.source).suffix.lower() == ".csv":
         times, weights = read_live_link_csv(args.source, args.csv_fps)
         fps = float(args.fps)
@@ -122,8 +122,8 @@ def _character(args):
 
 def retarget(args, out, progress=None) -> str:
     """CLI ``retarget``: the take of ``args.source`` onto the character of ``args.character``, saved to ``out``."""
-    from ..common.targets import transfer_weights
-    from ..common.timing import set_scene_fps
+    from ..adapters.targets import transfer_weights
+    from ..adapters.timing import set_scene_fps
     frames, weights, fps = _take_weights(args, progress)
     character = _character(args)
     scene = bpy.context.scene

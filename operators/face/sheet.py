@@ -17,9 +17,9 @@ import bpy
 import numpy as np
 
 from ...faces_hands_addon.anim.layers import BASE_LAYER, LAYERS
-from ..common import render
-from ..common.poses import push_pose
-from ..common.rig_store import get_rig, parts, to_world
+from ..adapters import render
+from ..adapters.poses import push_pose
+from ..adapters.rig_store import get_rig, parts, to_world
 from .objects import update_muscle_display
 
 Cell = tuple[str, dict]

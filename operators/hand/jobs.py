@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""The hand's long work as jobs (``common.jobs``): build a hand (reference or from a photo) and bake it
+"""The hand's long work as jobs (``bases.jobs``): build a hand (reference or from a photo) and bake it
 (bone rotations to an Action, corrective shape keys and their weights). Each computes in ``step`` without
 touching the scene and writes Blender data only in ``commit``, so cancelling leaves the scene as it was."""
 from __future__ import annotations
@@ -11,11 +11,11 @@ from mathutils import Matrix
 from ...faces_hands_addon.anim.layers import mix
 from ...faces_hands_addon.core.errors import UserError
 from ...faces_hands_addon.hand import bake as hand_bake
-from ..common import fcurves, shape_keys
-from ..common.jobs import Job
-from ..common.rig_store import get_rig
-from ..common.takes import take_for_bake
-from ..common.timing import frame_duration, scene_fps
+from ..adapters import fcurves, shape_keys
+from ..bases.jobs import Job
+from ..adapters.rig_store import get_rig
+from ..adapters.takes import take_for_bake
+from ..adapters.timing import frame_duration, scene_fps
 from .objects import EULER_ORDER, armature_of, create_hand_objects, rest_bone_matrices
 
 __all__ = ["BuildHandJob", "BakeHandJob", "MAX_FRAMES", "ACTION_NAME", "write_indexed_curves"]

@@ -16,11 +16,11 @@ import os
 import bpy
 
 from ...faces_hands_addon.core.errors import UserError
-from ..common.hardened import HardenedOperator
-from ..common.jobs import Job
-from ..common.modal import JobOperator
-from ..common.paths import default_voice
-from ..common.timing import scene_fps
+from ..bases.hardened import HardenedOperator
+from ..bases.jobs import Job
+from ..bases.modal import JobOperator
+from ..adapters.paths import default_voice
+from ..adapters.timing import scene_fps
 from . import apply
 
 __all__ = ["AnimateSpeechJob", "FH_OT_animate_speech", "FH_OT_mute_speech_layer", "check_inputs", "set_layer_mute"]
@@ -195,7 +195,7 @@ def set_layer_mute(obj, group_name: str, mute: bool | None = None) -> tuple[bool
     the group and each of its F-curves (Blender 5.0 does not skip a muted group's curves when it
     evaluates a layered action; the Dope Sheet's group toggle flushes to the curves, this does the same).
     Returns (muted, how many curves)."""
-    from ..common.fcurves import existing_channelbag
+    from ..adapters.fcurves import existing_channelbag
     bag = existing_channelbag(obj)
     group = bag.groups.get(group_name) if bag is not None else None
     curves = [fc for fc in bag.fcurves if fc.group == group] if group is not None else []

@@ -3,8 +3,8 @@
 
 Two kinds of target object:
 
-* a rig (``common.rig_store``): the take's control tracks go to the rig's speech
-  layer ``["fh.speech.<control>"]`` (see ``common.controls``);
+* a rig (``adapters.rig_store``): the take's control tracks go to the rig's speech
+  layer ``["fh.speech.<control>"]`` (see ``adapters.controls``);
 * any mesh with Meta/Oculus viseme shape keys (``viseme_sil`` ... ``viseme_ou``, or the Ready Player Me
   spellings ``viseme_I/O/U``): the take's viseme
   weights animate those shape keys, so characters without a muscle rig lip-sync too.
@@ -25,17 +25,18 @@ from ...faces_hands_addon.core.errors import UserError
 from ...faces_hands_addon.speech import VISEMES, save_wav
 from ...faces_hands_addon.performance import take_of
 from ...faces_hands_addon.speech.phonemes import VISEME_ALIASES
-from ..common import controls, fcurves
-from ..common.takes import remove_take, store_take
-from ..common.rig_store import is_rig
-from ..common.timing import scene_fps, seconds_to_frames
+from ..adapters import controls, fcurves
+from ..adapters.takes import remove_take, store_take
+from ..adapters.rig_store import is_rig
+from ..adapters.timing import scene_fps, seconds_to_frames
 from . import head as head_motion
+from ...names import MOUTH_CUES, TAKE_LAYERS
 
 STRIP_PREFIX = "FH Speech"
 #: object property holding the last take's mouth cues (Rhubarb shapes), for File > Export > Mouth Cues
-CUES_PROPERTY = "fh_mouth_cues"
+CUES_PROPERTY = MOUTH_CUES
 #: object property naming the layers besides speech the last take wrote (behavior, emotion)
-TAKE_LAYERS_PROPERTY = "fh_take_layers"
+TAKE_LAYERS_PROPERTY = TAKE_LAYERS
 VISEME_PATH = 'key_blocks["{}"].value'
 
 
@@ -166,7 +167,7 @@ def _cues_json(take) -> str:
 def apply_take(scene, obj, take, *, start_frame: int | None = None, audio_path: str | None = None,
                add_sound: bool = True) -> str:
     """Write ``take`` (a performed ``SpeechTake``) onto ``obj``, replacing its previous take: F-curves per
-    layer, the sound strip, and for a face rig the engine take the bakes start from (``common.takes``);
+    layer, the sound strip, and for a face rig the engine take the bakes start from (``adapters.takes``);
     returns a one-line report."""
     kind = target_kind(obj)
     if kind != take.target:

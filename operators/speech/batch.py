@@ -21,9 +21,9 @@ from ...faces_hands_addon.core.errors import UserError
 from ...faces_hands_addon.speech.audio import audio_header, written_here
 from ...faces_hands_addon.speech.espeak import RATE_RANGE
 from ...faces_hands_addon.speech.takes import check_text_length, estimated_seconds
-from ..common.bake import MAX_FRAMES
-from ..common.interrupts import raise_pending
-from ..common.outputs import check_output_path, ledger_mark, refuse_collisions, same_file, written, written_since
+from ..bases.bake import MAX_FRAMES
+from ..cli.interrupts import raise_pending
+from ..adapters.outputs import check_output_path, ledger_mark, refuse_collisions, same_file, written, written_since
 from ..face.sheet import VIEWS
 
 __all__ = ["OUT_SUFFIXES", "COLUMNS", "checked_spec", "read_jobs", "run_jobs"]

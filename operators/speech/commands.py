@@ -4,7 +4,7 @@
 from __future__ import annotations
 
 from ...faces_hands_addon.core.errors import UserError
-from ..common.outputs import written
+from ..adapters.outputs import written
 from ..face.sheet import VIEWS
 from .batch import checked_spec, read_jobs, run_jobs
 from .services import run_line, shared_default_rig

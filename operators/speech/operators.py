@@ -5,12 +5,12 @@ from __future__ import annotations
 import bpy
 
 from ...faces_hands_addon.core.errors import UserError
-from ..common.file_operators import SaveFileOperator
-from ..common.hardened import HardenedOperator
-from ..common.jobs import Job
-from ..common.modal import JobOperator
-from ..common.paths import default_voice
-from ..common.timing import scene_fps
+from ..bases.file_operators import SaveFileOperator
+from ..bases.hardened import HardenedOperator
+from ..bases.jobs import Job
+from ..bases.modal import JobOperator
+from ..adapters.paths import default_voice
+from ..adapters.timing import scene_fps
 from . import apply
 
 
@@ -156,7 +156,7 @@ class FH_OT_export_mouth_cues(HardenedOperator, SaveFileOperator, bpy.types.Oper
         from pathlib import Path
 
         from ...faces_hands_addon.speech.cues import MouthCue, cue_format, cues_text
-        from ..common.outputs import atomic_output
+        from ..adapters.outputs import atomic_output
         obj = context.active_object
         stored = obj.get(apply.CUES_PROPERTY)
         if not stored:

@@ -11,12 +11,12 @@ import bpy
 
 from ...faces_hands_addon.anim.timing import check_fps
 from ...faces_hands_addon.core.errors import UserError
-from ..common.blendfile import open_blend
-from ..common.export import save_or_export
-from ..common.outputs import atomic_output
-from ..common.rig_store import find_rig
-from ..common.targets import write_live_link
-from ..common.timing import scene_fps, set_scene_fps
+from ..adapters.blendfile import open_blend
+from ..adapters.export import save_or_export
+from ..adapters.outputs import atomic_output
+from ..adapters.rig_store import find_rig
+from ..adapters.targets import write_live_link
+from ..adapters.timing import scene_fps, set_scene_fps
 from ..face import services as face, sheet
 from ..face.objects import EXPORT_ROLES
 from . import apply, head as head_motion

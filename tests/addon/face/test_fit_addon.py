@@ -47,8 +47,8 @@ def test_fit_rig_keeps_the_mesh_and_muscles_act(bpy_clean):
     assert obj.get("fh_rig") and len(obj.data.vertices) == len(before)
     assert np.allclose(np.array([v.co[:] for v in obj.data.vertices]), before), "the artist's mesh changed"
     assert "ArtistUV" in obj.data.uv_layers and "ArtistKey" in obj.data.shape_keys.key_blocks
-    live = addon_module("operators.common.live")
-    rig = addon_module("operators.common.rig_store").get_rig(obj)
+    live = addon_module("operators.bases.live")
+    rig = addon_module("operators.adapters.rig_store").get_rig(obj)
     corner = rig.landmarks[291]  # left mouth corner (character's left = +X), world coordinates
     world = np.array(obj.matrix_world)
     local_corner = np.linalg.inv(world) @ np.r_[corner, 1.0]
@@ -109,7 +109,7 @@ def test_fit_rig_on_a_head_lying_face_up(bpy_clean):
     obj.rotation_euler = (-np.pi / 2, 0.0, 0.0)
     bpy.context.view_layer.update()
     assert bpy.ops.faces_hands.fit_face_rig() == {"FINISHED"}
-    rig = addon_module("operators.common.rig_store").get_rig(obj)
+    rig = addon_module("operators.adapters.rig_store").get_rig(obj)
     world = np.array(obj.matrix_world)
     truth = head.truth @ world[:3, :3].T + world[:3, 3]
     error = np.linalg.norm(np.asarray(rig.landmarks) - truth, axis=1) / head.face_width

@@ -27,7 +27,11 @@ def _draw_all(bpy):
         if hasattr(cls, "poll") and not cls.poll(context):
             drawn[name] = None
             continue
-        cls.draw(SimpleNamespace(layout=Layout(log)), context)
+        panel = SimpleNamespace(layout=Layout(log))
+        for attribute in ("rig_kind", "group_order", "nothing"):      # a RigControlsPanel's settings
+            if hasattr(cls, attribute):
+                setattr(panel, attribute, getattr(cls, attribute))
+        cls.draw(panel, context)
         drawn[name] = log
     return drawn
 

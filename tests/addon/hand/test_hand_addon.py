@@ -83,7 +83,7 @@ def test_limit_rotation_keeps_a_posed_bone_inside_table_6_4(bpy_clean):
 def test_live_step_curls_a_finger_towards_the_palm(bpy_clean):
     bpy = bpy_clean
     obj = _build(bpy)
-    live = addon_module("operators.common.live")
+    live = addon_module("operators.bases.live")
     objects = addon_module("operators.hand.objects")
     rest = _evaluated(bpy, obj)
     obj["fh.ctrl.flexor_digitorum_profundus_middle"] = 0.4
@@ -178,7 +178,7 @@ def test_retarget_onto_the_webxr_generic_hand(bpy_clean, installed):
 def test_a_left_hand_is_mirrored_and_curls_the_same_way(bpy_clean):
     bpy = bpy_clean
     obj = _build(bpy, "left")
-    live = addon_module("operators.common.live")
+    live = addon_module("operators.bases.live")
     objects = addon_module("operators.hand.objects")
     rest = _evaluated(bpy, obj)
     assert rest[int(np.argmin(rest[:, 1])), 0] < -0.02        # the thumb tip: at +X on a right hand, -X here

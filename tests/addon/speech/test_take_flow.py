@@ -30,8 +30,8 @@ def _rig_with_take(bpy, performed):
 
 
 def _tables(rig, scene, engine_take):
-    takes = addon_module("operators.common.takes")
-    specs = addon_module("operators.common.rig_store").get_rig(rig).control_specs()
+    takes = addon_module("operators.adapters.takes")
+    specs = addon_module("operators.adapters.rig_store").get_rig(rig).control_specs()
     frames = range(scene.frame_start, scene.frame_end + 1)
     stored, start = takes.take_for_bake(rig, scene, specs)
     return engine_take.table(specs, frames, FPS, 0), stored.table(specs, frames, FPS, start), specs
@@ -65,7 +65,7 @@ def test_an_edited_layer_is_read_from_its_curves_and_the_others_stay_the_engine_
     performed = _performed(bpy)
     rig = _rig_with_take(bpy, performed)
     scene = bpy.context.scene
-    fcurves = addon_module("operators.common.fcurves")
+    fcurves = addon_module("operators.adapters.fcurves")
     curve = next(c for c in fcurves.existing_channelbag(rig).fcurves
                  if c.data_path == '["fh.emotion.zygomaticus_major_L"]')
     key = curve.keyframe_points[len(curve.keyframe_points) // 2]

@@ -14,10 +14,10 @@ import sys
 import time
 import traceback
 
-from ..faces_hands_addon.core.errors import UserError
-from .common.interrupts import Terminated, clear, interruptible, private_temp_root, raise_pending
-from .common.outputs import ledger_mark, written_since
-from .common.paths import write_session_bytecode
+from ...faces_hands_addon.core.errors import UserError
+from .interrupts import Terminated, clear, interruptible, private_temp_root, raise_pending
+from ..adapters.outputs import ledger_mark, written_since
+from ..adapters.paths import write_session_bytecode
 
 
 class CommandLineError(Exception):
@@ -64,7 +64,7 @@ class Progress:
 
 
 def _subcommands():
-    from . import COMMANDS
+    from .. import COMMANDS
     return COMMANDS
 
 

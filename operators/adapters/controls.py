@@ -18,6 +18,8 @@ import numpy as np
 from ...faces_hands_addon.anim.layers import BASE_LAYER, LAYERS, DriverExpression, LayerTable
 from ...faces_hands_addon.core.controls import ControlSpec
 from . import fcurves
+from ...names import CONTROL_PREFIX, control_property
+from ...names import layer_prefix as names_layer_prefix
 
 __all__ = ["LAYERS", "prop_name", "data_path", "layer_prefix", "ensure_property", "ensure_controls",
            "reset_controls", "layer_values", "available_layers", "sample_layers", "add_mixed_driver",
@@ -27,7 +29,7 @@ __all__ = ["LAYERS", "prop_name", "data_path", "layer_prefix", "ensure_property"
 def prop_name(control: str, layer: str = BASE_LAYER) -> str:
     if layer not in LAYERS:
         raise ValueError(f"unknown control layer {layer!r}")
-    return f"fh.{layer}.{control}"
+    return control_property(control, layer)
 
 
 def data_path(control: str, layer: str = BASE_LAYER) -> str:
@@ -36,7 +38,7 @@ def data_path(control: str, layer: str = BASE_LAYER) -> str:
 
 def layer_prefix(layer: str) -> str:
     """Data-path prefix shared by every control of ``layer`` (for replacing a whole take)."""
-    return f'["fh.{layer}.'
+    return f'["{names_layer_prefix(layer)}'
 
 
 def _one_line(text: str) -> str:
@@ -106,7 +108,7 @@ def curves_evaluate_exactly(obj, scene) -> bool:
         return False
     if scene.render.frame_map_old != scene.render.frame_map_new:
         return False
-    if any(d.data_path.startswith('["fh.') for d in anim.drivers):
+    if any(d.data_path.startswith(f'["{CONTROL_PREFIX}.') for d in anim.drivers):
         return False
     action = anim.action
     if action is not None:

@@ -23,11 +23,12 @@ from ...faces_hands_addon.core.errors import UserError
 from . import controls, fcurves
 from .shape_keys import frame_range
 from .timing import scene_fps
+from ...names import TAKE, TAKE_STAMP
+from ...names import layer_prefix as names_layer_prefix
 
 __all__ = ["TAKE_PROPERTY", "TAKE_STAMP_PROPERTY", "store_take", "stored_take", "remove_take", "take_for_bake"]
 
-TAKE_PROPERTY = "fh_take"                 # the stored take's bytes (``Take.to_bytes``)
-TAKE_STAMP_PROPERTY = "fh_take_stamp"     # JSON: start frame, fps, per-layer fingerprints of its F-curves
+TAKE_PROPERTY, TAKE_STAMP_PROPERTY = TAKE, TAKE_STAMP
 
 
 def _layer_fingerprint(obj, scene, layer: str) -> str:
@@ -50,7 +51,7 @@ def _layer_fingerprint(obj, scene, layer: str) -> str:
         kinds = "".join(f"{k.interpolation}{k.easing}" for k in curve.keyframe_points)
         digest.update(f"{curve.data_path}|{curve.mute}|{len(curve.modifiers)}|{curve.extrapolation}|{kinds}".encode())
         digest.update(points.tobytes())
-    for key in sorted(k for k in obj.keys() if k.startswith(f"fh.{layer}.")):
+    for key in sorted(k for k in obj.keys() if k.startswith(names_layer_prefix(layer))):
         if controls.data_path(key.split(".", 2)[2], layer) not in keyed:
             digest.update(f"{key}={float(obj[key])!r}".encode())
     digest.update(str(controls.curves_evaluate_exactly(obj, scene)).encode())

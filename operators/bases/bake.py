@@ -18,12 +18,12 @@ import numpy as np
 from ...faces_hands_addon.anim import bakes
 from ...faces_hands_addon.anim.take import Take
 from ...faces_hands_addon.core.errors import UserError
-from . import shape_keys
+from ..adapters import shape_keys
 from .jobs import Job
-from .paths import shape_cache
-from .rig_store import get_rig, output_to_local, parts
-from .takes import take_for_bake
-from .timing import scene_fps
+from ..adapters.paths import shape_cache
+from ..adapters.rig_store import get_rig, output_to_local, parts
+from ..adapters.takes import take_for_bake
+from ..adapters.timing import scene_fps
 
 __all__ = ["MODES", "MAX_FRAMES", "BakeInputs", "bake_inputs", "BakeJob", "WeightsBakeJob"]
 
