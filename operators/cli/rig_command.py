@@ -19,13 +19,15 @@ __all__ = ["RigCommand"]
 
 class RigCommand:
     """Subclasses set ``NAME``, ``HELP``, ``OUTPUTS`` (allowed suffixes), ``BLEND_HELP``, ``EXPORT_ROLES`` and
-    implement ``rig_object(args, progress)`` and ``work(args, obj, out, progress) -> report``; ``add_options``
-    adds their own arguments; ``write`` saves or exports the rig (override for pictures)."""
+    ``open_rig`` (``(blend or None, rig name or None, progress) -> rig object``: the subsystem's service) and
+    implement ``work(args, obj, out, progress) -> report``; ``add_options`` adds their own arguments;
+    ``write`` saves or exports the rig (override for pictures)."""
 
     NAME = HELP = ""
     OUTPUTS: tuple[str, ...] = (".glb", ".fbx", ".blend")
     BLEND_HELP = "a .blend with the rig (default: build the default rig)"
     EXPORT_ROLES: tuple[str, ...] = ()
+    open_rig = None
 
     @classmethod
     def add_arguments(cls, parser) -> None:
@@ -57,8 +59,8 @@ class RigCommand:
         """Refuse bad arguments before any work (UserError)."""
 
     @classmethod
-    def rig_object(cls, args, progress):  # pragma: no cover - abstract
-        raise NotImplementedError
+    def rig_object(cls, args, progress):
+        return cls.open_rig(args.blend, args.rig, progress)
 
     @classmethod
     def work(cls, args, obj, out: Path, progress) -> str:  # pragma: no cover - abstract

@@ -61,10 +61,7 @@ class BuildFace:
 class _FaceCommand(RigCommand):
     BLEND_HELP = "a .blend with a face rig (default: build the default head)"
     EXPORT_ROLES = EXPORT_ROLES
-
-    @classmethod
-    def rig_object(cls, args, progress):
-        return services.rig_object(args.blend, args.rig, progress)
+    open_rig = staticmethod(services.rig_object)
 
 
 class Bake(_FaceCommand):

@@ -49,10 +49,7 @@ class BuildHand:
 class _HandCommand(RigCommand):
     BLEND_HELP = "a .blend with a hand rig (default: build the reference hand)"
     EXPORT_ROLES = EXPORT_ROLES
-
-    @classmethod
-    def rig_object(cls, args, progress):
-        return services.hand_object(args.blend, args.rig, progress)
+    open_rig = staticmethod(services.hand_object)
 
 
 class AnimateHand(_HandCommand):
