@@ -20,9 +20,10 @@ from pathlib import Path
 from typing import Callable
 
 from ..core.errors import UserError
+from ..core.files import FileClaims
 from .manifest import Problem, RawRow
 
-__all__ = ["ACTIONS", "OUT_SUFFIXES", "FARM_FOLDER", "SIDECAR_SUFFIX", "REPORT_NAME", "JobRow", "RowChecks",
+__all__ = ["ACTIONS", "OUT_SUFFIXES", "FARM_FOLDER", "SIDECAR_SUFFIX", "REPORT_NAME", "JobRow", "Once", "RowChecks",
            "check_rows", "number_field", "relative_output"]
 
 ACTIONS = ("speak", "lipsync")
@@ -113,6 +114,27 @@ def relative_output(label: str, value: str, suffixes: tuple[str, ...]) -> str:
     return "/".join(parts)
 
 
+class Once:
+    """Checks run once per distinct value (a voice, an emotion word, a style: the same few values recur in
+    thousands of rows); a value's :class:`UserError` is kept and raised again."""
+
+    def __init__(self):
+        self._seen: dict[tuple[str, str], object] = {}
+        self.folders: dict[str, str] = {}       # resolved folders, for the run's FileClaims
+
+    def __call__(self, kind: str, value: str, check: Callable[[str], object]):
+        key = (kind, value)
+        if key not in self._seen:
+            try:
+                self._seen[key] = check(value)
+            except UserError as error:
+                self._seen[key] = error
+        result = self._seen[key]
+        if isinstance(result, UserError):
+            raise result
+        return result
+
+
 class RowChecks:
     """The per-value checks of a run, each done once per distinct value (``voice_check``: raises for a
     voice the speech engine lacks; ``max_frames``: the most a per-frame bake takes)."""
@@ -126,19 +148,7 @@ class RowChecks:
         self.folder = manifest_folder
         self.fps, self.max_frames = fps, max_frames
         self._voice_check = voice_check
-        self._seen: dict[tuple[str, str], UserError | object] = {}
-
-    def once(self, kind: str, value: str, check: Callable[[str], object]):
-        key = (kind, value)
-        if key not in self._seen:
-            try:
-                self._seen[key] = check(value)
-            except UserError as error:
-                self._seen[key] = error
-        result = self._seen[key]
-        if isinstance(result, UserError):
-            raise result
-        return result
+        self.once = Once()
 
     def voice(self, voice: str) -> None:
         if self._voice_check is not None:
@@ -234,24 +244,18 @@ def check_rows(raws: list[RawRow], checks: RowChecks, out_dir: Path, inputs: dic
 
 class _OutputGuard:
     """Claims of output files, linear: a dictionary by case-folded relative path; each folder resolved and
-    listed once, so only outputs that already exist are looked at (by device and inode, which finds an
-    input under any name: a link, a second spelling on a case-insensitive disk)."""
+    listed once, so only outputs that already exist are looked up among the inputs (:class:`FileClaims`)."""
 
     def __init__(self, out_dir: Path, inputs: dict[str, str], rows: list[JobRow]):
         self.root = os.path.realpath(out_dir)
         self.claimed: dict[str, int] = {}
-        self.inodes: dict[tuple[int, int], str] = {}
+        self.inputs = FileClaims()
         self.folders: dict[str, tuple[str, set[str]]] = {}
         for label, path in inputs.items():
-            self._add_input(path, label)
+            self.inputs.add(path, label)
         for row in rows:
             if row.audio:
-                self._add_input(row.audio, f"the audio of line {row.line}")
-
-    def _add_input(self, path: str, label: str) -> None:
-        inode = _inode(path)
-        if inode is not None:
-            self.inodes.setdefault(inode, label)
+                self.inputs.add(row.audio, f"the audio of line {row.line}")
 
     def _folder(self, relative_folder: str) -> tuple[str, set[str]]:
         """(resolved folder, case-folded names in it) of a folder inside the output folder."""
@@ -279,16 +283,9 @@ class _OutputGuard:
                 full = os.path.join(real, path[slash + 1:])
                 if os.path.isdir(full):
                     raise UserError(f"{path!r} is a folder")
-                label = self.inodes.get(_inode(full))
+                label = self.inputs.owner(full)
                 if label is not None:
                     raise UserError(f"writes {path!r}, which is {label}; never an input is written")
         for key in keys:
             self.claimed[key] = row.line
 
-
-def _inode(path: str) -> tuple[int, int] | None:
-    try:
-        stat = os.stat(path)
-    except OSError:
-        return None
-    return stat.st_dev, stat.st_ino
