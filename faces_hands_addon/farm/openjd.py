@@ -11,7 +11,8 @@ OpenJD reader takes both.
 
 * A job **environment** checks the Blender version against the zip's own manifest and installs the zip
   into a Blender user folder private to the session (``blender --command extension install-file``), which
-  every later action of the session uses through ``BLENDER_USER_RESOURCES``.
+  every later action of the session uses through ``BLENDER_USER_RESOURCES``; ``CacheDir``, a folder of the
+  worker's, keeps the settled target shapes warm from session to session (``FH_CACHE_DIR``).
 * Step ``BakeRows``: one task per chunk of ``ChunkSize`` rows (task parameter ``FirstRow``), each one
   Blender process that builds the rig once and runs its rows (``faces_hands jobs ... --first-row``).
 * Step ``MergeReports`` (after every chunk): one report for the whole job in the output folder.
@@ -32,7 +33,7 @@ USER_FOLDER = "{{Session.WorkingDirectory}}/blender-user"
 SETUP_SCRIPT = '''\
 import os, subprocess, sys, tomllib, zipfile
 import bpy
-blender, zip_path, user_dir = sys.argv[sys.argv.index("--") + 1:][:3]
+blender, zip_path, user_dir, cache_dir = sys.argv[sys.argv.index("--") + 1:][:4]
 with zipfile.ZipFile(zip_path) as archive:
     manifest = tomllib.loads(archive.read("blender_manifest.toml").decode("utf-8"))
 def version(text):
@@ -49,6 +50,9 @@ env = dict(os.environ, BLENDER_USER_RESOURCES=user_dir)
 subprocess.run([blender, "--command", "extension", "install-file", "--repo", "user_default", "--enable",
                 zip_path], env=env, check=True)
 print(f"openjd_env: BLENDER_USER_RESOURCES={user_dir}", flush=True)
+if cache_dir:
+    os.makedirs(cache_dir, exist_ok=True)
+    print(f"openjd_env: FH_CACHE_DIR={cache_dir}", flush=True)
 '''
 
 
@@ -88,6 +92,9 @@ def job_template(name: str, rows: int, chunk: int, fps: float, rig: bool = False
          "description": "Rows per task: each task is one Blender process that builds the rig once."},
         {"name": "Fps", "type": "FLOAT", "default": fps, "minValue": 1, "maxValue": 240,
          "description": "Frame rate of the animations."},
+        {"name": "CacheDir", "type": "PATH", "objectType": "DIRECTORY", "dataFlow": "NONE", "default": "",
+         "description": "A folder on the worker that keeps the settled target shapes and compiled code from "
+                        "session to session (empty: each session computes them anew, about 30 s)."},
     ]
     if rig:
         parameters.append(_path_parameter("RigFile", "FILE", "IN", "The .blend with the face rig."))
@@ -99,7 +106,8 @@ def job_template(name: str, rows: int, chunk: int, fps: float, rig: bool = False
             "embeddedFiles": [{"name": "Setup", "type": "TEXT", "filename": "fh_setup.py", "data": SETUP_SCRIPT}],
             "actions": {"onEnter": _blender_action(
                 ["-b", "--factory-startup", "--python-exit-code", "1", "--python", "{{Env.File.Setup}}", "--",
-                 "{{Param.BlenderExecutable}}", "{{Param.ExtensionZip}}", USER_FOLDER], timeout=1800)}}}
+                 "{{Param.BlenderExecutable}}", "{{Param.ExtensionZip}}", USER_FOLDER, "{{Param.CacheDir}}"],
+                timeout=1800)}}}
     bake = {"name": "BakeRows",
             "parameterSpace": {"taskParameterDefinitions": [
                 {"name": "FirstRow", "type": "INT", "range": f"1-{max(rows, 1)}:{{{{Param.ChunkSize}}}}"}]},

@@ -5,7 +5,8 @@ progress line and keeps the report.
 Each worker runs ``jobs --serve`` and speaks JSON lines: rows come in on its standard input, one at a time;
 it answers on its standard output, on lines marked ``FHJOB`` (Blender's own start-up lines on the same
 stream are logged, not parsed), and everything else it prints goes to its log in ``.fh-farm/logs``.
-Because a worker holds one row at a time, a worker that dies (killed, out of memory, a crash in C) costs
+The first row runs alone (every worker starts meanwhile): a cold shape cache is filled once, not by every
+worker at the same time. Because a worker holds one row at a time, a worker that dies (killed, out of memory, a crash in C) costs
 exactly that row: it is reported failed, its staging folder is removed, a new worker takes its place, and a
 rerun of the manifest redoes the row. No Blender API here: the pool only starts processes.
 """
@@ -88,6 +89,8 @@ class Pool:
         self.running: dict[int, _Worker] = {}
         self.deaths = 0
         self.spawned = 0
+        self.warm = False           # until a first row is over, one row at a time (the others would
+                                    # settle the same target shapes at the same time)
         self.logs = self.out_dir / FARM_FOLDER / "logs"
 
     def run(self, todo: list[tuple[JobRow, str, dict]]) -> None:
@@ -149,6 +152,7 @@ class Pool:
         if message.get("ready"):
             worker.ready, worker.staging = True, message.get("staging", "")
         elif "done" in message or "failed" in message:
+            self._warmed()
             row = worker.row[0]
             if "done" in message:
                 self.report.done[row.line] = {"out": row.out, "seconds": round(message["seconds"], 3),
@@ -158,9 +162,19 @@ class Pool:
             worker.row = None
         self._feed(worker)
 
+    def _warmed(self) -> None:
+        """The first row is over: its target shapes are in the cache, every ready worker takes a row."""
+        if not self.warm:
+            self.warm = True
+            for other in list(self.running.values()):
+                if other.row is None:
+                    self._feed(other)
+
     def _feed(self, worker: _Worker) -> None:
         if worker.row is not None or not worker.ready:
             return
+        if not self.warm and any(other.row is not None for other in self.running.values()):
+            return                                      # the first row warms the shape cache for the rest
         if not self.pending:
             self._write(worker, _STOP)
             return
@@ -196,6 +210,8 @@ class Pool:
             row = worker.row[0]
             self.report.fail(row.line, row.out, f"the worker process ended during this row ({how}; its log: "
                                                 f"{log}); nothing of the row was written: run again to redo it")
+            worker.row = None
+            self._warmed()
         if self.pending and self.deaths <= max(2, self.workers):
             self._spawn()
         elif self.pending and not self.running:
