@@ -41,8 +41,8 @@ def _report_for(manifest: CheckedManifest, rows: int, workers: int) -> RunReport
     return report
 
 
-def _attempt(runner: RowRunner, row: JobRow, key: str, inputs: dict) -> tuple[float | None, str]:
-    """(seconds, "") when the row was written, (None, reason) when it failed; an interrupt goes on."""
+def _attempt(runner: RowRunner, row: JobRow, key: str, inputs: dict) -> tuple[dict | None, str]:
+    """(timing, "") when the row was written, (None, reason) when it failed; an interrupt goes on."""
     try:
         return runner.run(row, key, inputs), ""
     except UserError as error:
@@ -65,8 +65,8 @@ def serve(args) -> int:
             if message.get("stop"):
                 break
             row = JobRow.from_fields(message["row"])
-            seconds, reason = _attempt(runner, row, message["key"], message["inputs"])
-            answer = {"done": row.line, "seconds": seconds} if seconds is not None else {"failed": reason}
+            timing, reason = _attempt(runner, row, message["key"], message["inputs"])
+            answer = {"done": row.line, **timing} if timing is not None else {"failed": reason}
             send(protocol, {**answer, "rss_mb": peak_rss_mb()})
     finally:
         runner.close()
@@ -118,13 +118,13 @@ def run_chunk(args, manifest: CheckedManifest, plan: Plan, progress) -> int:
     try:
         for index, (row, key, inputs) in enumerate(plan.todo):
             print(f"openjd_progress: {100.0 * index / len(plan.todo):.1f}", flush=True)
-            seconds, reason = _attempt(runner, row, key, inputs)
-            if seconds is None:
+            timing, reason = _attempt(runner, row, key, inputs)
+            if timing is None:
                 report.fail(row.line, row.out, reason)
                 print(f"line {row.line} ({row.out}): failed: {reason}", flush=True)
             else:
-                report.done[row.line] = {"out": row.out, "seconds": round(seconds, 3), "worker": 1}
-                print(f"line {row.line} ({row.out}): done in {seconds:.1f} s", flush=True)
+                report.done[row.line] = {"out": row.out, **timing, "worker": 1}
+                print(f"line {row.line} ({row.out}): done in {timing['seconds']:.1f} s", flush=True)
     finally:
         if runner is not None:
             runner.close()

@@ -155,8 +155,8 @@ class Pool:
             self._warmed()
             row = worker.row[0]
             if "done" in message:
-                self.report.done[row.line] = {"out": row.out, "seconds": round(message["seconds"], 3),
-                                              "worker": worker.number}
+                self.report.done[row.line] = {"out": row.out, "seconds": message["seconds"],
+                                              "cpu_s": message.get("cpu_s"), "worker": worker.number}
             else:
                 self.report.fail(row.line, row.out, message["failed"])
             worker.row = None
