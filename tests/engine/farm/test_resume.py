@@ -69,25 +69,26 @@ def test_an_audio_input_is_known_by_its_content(tmp_path):
 def test_a_commit_cut_short_leaves_no_partial_file_and_the_row_to_redo(tmp_path, monkeypatch):
     rows = _rows(tmp_path)
     out = tmp_path / "out"
-    row, key, inputs = plan_rows(rows, out, RUN).todo[0]
-    _commit(out, row, key, inputs, b"old ")
+    (row, key, inputs), (second, key2, inputs2) = plan_rows(rows, out, RUN).todo[:2]
+    _commit(out, second, key2, inputs2, b"old ")
     real = os.replace
-    moved = []
 
-    def dies_after_the_first_output(src, dst):
+    def dies_before_the_wav(src, dst):
         if str(dst).endswith(".wav"):
             raise KeyboardInterrupt                         # killed between two renames
-        moved.append(dst)
         return real(src, dst)
-    monkeypatch.setattr(resume.os, "replace", dies_after_the_first_output)
-    with pytest.raises(KeyboardInterrupt):
-        _commit(out, row, key, inputs, b"new ")
+    monkeypatch.setattr(resume.os, "replace", dies_before_the_wav)
+    for target, target_key, target_inputs in ((row, key, inputs), (second, key2, inputs2)):
+        with pytest.raises(KeyboardInterrupt):
+            _commit(out, target, target_key, target_inputs, b"new ")
     monkeypatch.setattr(resume.os, "replace", real)
-    assert (out / "a.glb").read_bytes() == b"new a.glb" and (out / "a.wav").read_bytes() == b"old a.wav"
-    plan = plan_rows(rows, out, RUN)                         # the incomplete sidecar marks the files as ours
-    assert not plan.problems and row.line in [r.line for r, _, _ in plan.todo]
+    assert (out / "a.glb").read_bytes() == b"new a.glb" and not (out / "a.wav").exists()     # a first run
+    assert (out / "sub/b.glb").read_bytes() == b"new sub/b.glb"                              # a rerun
+    assert (out / "sub/b.wav").read_bytes() == b"old sub/b.wav"
+    plan = plan_rows(rows, out, RUN)            # the incomplete sidecars mark the files as this run's own
+    assert not plan.problems and [r.line for r, _, _ in plan.todo] == [2, 3, 4]
     _commit(out, row, key, inputs, b"new ")
-    assert row.line in [r.line for r in plan_rows(rows, out, RUN).current]
+    assert [r.line for r in plan_rows(rows, out, RUN).current] == [2]
 
 
 def test_an_output_no_jobs_run_wrote_is_kept_unless_overwrite(tmp_path):
