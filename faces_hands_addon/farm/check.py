@@ -13,7 +13,7 @@ from ..core.errors import UserError
 from .manifest import Problem, read_manifest
 from .rows import JobRow, RowChecks, check_rows
 
-__all__ = ["CheckedManifest", "check_manifest", "problems_text", "chunk_starts", "chunk_of", "check_out_dir"]
+__all__ = ["CheckedManifest", "check_manifest", "problems_text", "chunk_starts", "chunk_of"]
 
 
 @dataclass
@@ -30,26 +30,13 @@ class CheckedManifest:
         return ", ".join(f"{count} {action}" for action, count in sorted(by_action.items()))
 
 
-def check_out_dir(out_dir: Path) -> Path:
-    """The output folder, refused when it is a file or cannot be made."""
-    out_dir = Path(out_dir).expanduser()
-    if out_dir.exists() and not out_dir.is_dir():
-        raise UserError(f"output folder {out_dir} is a file")
-    probe = out_dir
-    while not probe.exists():
-        probe = probe.parent
-    if not probe.is_dir() or not os.access(probe, os.W_OK):
-        raise UserError(f"cannot write into {probe} (the output folder {out_dir} goes there)")
-    return out_dir
-
-
 def check_manifest(path: str | os.PathLike, out_dir: str | os.PathLike, *, fps: float, max_frames: int,
                    voice_check: Callable[[str], None] | None = None,
                    rig: str | os.PathLike | None = None) -> CheckedManifest:
     """Read and check every row of the manifest at ``path`` for a run writing into ``out_dir``; relative
-    inputs are read from the manifest's folder. Problems are collected, not raised (:func:`problems_text`)."""
-    path = Path(path)
-    out_dir = check_out_dir(Path(out_dir))
+    inputs are read from the manifest's folder (``out_dir`` is the caller's to check: a folder, or one that
+    can be made). Problems are collected, not raised (:func:`problems_text`)."""
+    path, out_dir = Path(path), Path(out_dir)
     reading = read_manifest(path)
     checks = RowChecks(path.parent.resolve(), fps, max_frames, voice_check)
     inputs = {"the manifest": str(path)}

@@ -13,6 +13,7 @@ from ...faces_hands_addon.core.errors import UserError
 from ...faces_hands_addon.farm.check import CheckedManifest, check_manifest, chunk_of, problems_text
 from ...faces_hands_addon.farm.resume import Plan, plan_rows
 from ..common.bake import MAX_FRAMES
+from ..common.outputs import check_output_dir
 from . import modes
 from .runner import run_identity
 
@@ -63,7 +64,8 @@ def checked(args) -> CheckedManifest:
     if args.rig and (not Path(args.rig).is_file() or Path(args.rig).suffix.lower() != ".blend"):
         raise UserError(f"--rig {args.rig}: give an existing .blend file with a face rig")
     manifest = Path(args.manifest)
-    result = check_manifest(manifest, args.out_dir or manifest.parent, fps=args.fps, max_frames=MAX_FRAMES,
+    out_dir = check_output_dir(args.out_dir or manifest.parent)
+    result = check_manifest(manifest, out_dir, fps=args.fps, max_frames=MAX_FRAMES,
                             voice_check=check_voice, rig=args.rig)
     _refuse(manifest, result.problems)
     return result

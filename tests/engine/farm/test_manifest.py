@@ -11,7 +11,6 @@ import pytest
 
 from faces_hands_addon import UserError
 from faces_hands_addon.core.files import FileClaims
-from faces_hands_addon.farm import check as farm_check
 from faces_hands_addon.farm.check import check_manifest, chunk_of, chunk_starts
 from faces_hands_addon.farm.rows import relative_output
 
@@ -175,5 +174,3 @@ def test_chunks_cover_every_row_once(tmp_path):
     assert [row.out for first in starts for row in chunk_of(rows, first, 3)] == [row.out for row in rows]
     with pytest.raises(UserError):
         chunk_of(rows, 8, 3)
-    with pytest.raises(UserError):
-        farm_check.check_out_dir(manifest)                 # a file is no output folder
