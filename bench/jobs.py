@@ -1,15 +1,16 @@
 """Dialogue at studio scale: `faces_hands jobs` on a manifest of spoken lines (2-6 s each, several voices,
 emotions and styles), through the CLI as a user runs it.
 
-* ``check_100k_s``: `--check` of a 100,000-row manifest (the whole command, Blender's start included; the
-  check itself is also given as ``check_100k_cpu_s``).
+* ``check_100k_s``: `--check` of a 100,000-row manifest (the whole command, Blender's start included);
+  ``check_100k_cpu_s``: its CPU seconds beyond the same command on one row (the check's own).
 * ``lines_per_min_1w`` / ``lines_per_min_2w`` and ``speedup_2w``: the same rows on 1 and on 2 workers (into
   two folders, one after the other, the shape cache warm); the machine's load average is given beside them
   (the machine is shared: a busy neighbour takes the second core).
 * ``line_overhead_cpu_s`` and ``cpu_s_per_speech_s``: each row's CPU seconds fitted as a + b * speech seconds
   (the rows' own CPU time, which a neighbour's load does not inflate); a is what a line costs beyond its
   speech's share.
-* ``resume_s``: the rerun with nothing to do (every row current), the whole command.
+* ``resume_s``: the rerun with nothing to do (every row current), the whole command; ``resume_1000_s`` the
+  same on 1,000 rows whose sidecars and (stand-in) files the engine's commit wrote.
 * ``kill_lost_rows`` / ``kill_partial_files``: 2 workers, one SIGKILLed in the middle of a row, then a
   rerun: rows still not current, and files in the output folder that no complete sidecar lists.
 * ``openjd_*``: the generated bundle under ``openjd run`` (Blender's command line from
@@ -75,6 +76,16 @@ def timed(command: list[str], **kw) -> tuple[float, subprocess.CompletedProcess]
     return time.perf_counter() - started, result
 
 
+def cpu_of(command: list[str]) -> float:
+    """CPU seconds (user + system) the command took, its children included; a neighbour's load does not
+    inflate them as it does wall time."""
+    import resource
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    timed(command)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
+
+
 def report(out: Path) -> dict:
     return json.loads((out / "jobs_report.json").read_text())
 
@@ -86,10 +97,41 @@ def speech_seconds(out: Path, name: str) -> float:
 
 
 def check_100k(folder: Path) -> dict:
+    """The whole `--check` command on 100,000 rows; its CPU beyond the same command on one row (Blender's
+    start and the extension's) is the check's own."""
     path = manifest(folder / "big.csv", 100_000)
     wall, result = timed(fh("jobs", path, "--out-dir", folder / "big_out", "--check"))
     inner = re.search(r"done in ([\d.]+) s", result.stderr)
-    return {"check_100k_s": wall, "check_100k_inner_s": float(inner.group(1)) if inner else -1.0}
+    one = manifest(folder / "one.csv", 1)
+    cpu_big = cpu_of(fh("jobs", path, "--out-dir", folder / "big_out", "--check"))
+    cpu_one = cpu_of(fh("jobs", one, "--out-dir", folder / "big_out", "--check"))
+    return {"check_100k_s": wall, "check_100k_inner_s": float(inner.group(1)) if inner else -1.0,
+            "check_100k_cpu_s": cpu_big - cpu_one, "check_1_row_cpu_s": cpu_one}
+
+
+def resume_at_scale(folder: Path, rows: int) -> dict:
+    """A rerun with nothing to do on ``rows`` rows: their sidecars and files made by the engine's commit
+    (small stand-in files: a resume only reads sidecars and looks at the files' size and time), keyed as
+    the command keys them; then the real command, timed whole."""
+    sys.path.insert(0, str(ROOT / "bench"))
+    import _harness  # noqa: F401  (the installed extension, in this process)
+    from faces_hands_addon.farm.check import check_manifest
+    from faces_hands_addon.farm.resume import commit_row, plan_rows, staging_folder
+    identity = _harness.addon_module("operators.farm.runner").run_identity(None, 30.0)
+    path, out = manifest(folder / f"resume{rows}.csv", rows, seed=5), folder / f"out_resume{rows}"
+    checked = check_manifest(path, out, fps=30.0, max_frames=5000)
+    staging = staging_folder(out)
+    for row, key, inputs in plan_rows(checked.rows, out, identity).todo:
+        staged = {}
+        for name in row.outputs():
+            staged[name] = staging / name
+            staged[name].parent.mkdir(parents=True, exist_ok=True)
+            staged[name].write_bytes(b"stand-in " + name.encode())
+        commit_row(out, row, key, inputs, staged, staging, identity.extension_version)
+    wall, _ = timed(fh("jobs", path, "--out-dir", out, "--workers", 2))
+    doc = report(out)
+    return {f"resume_{rows}_s": wall, f"resume_{rows}_skipped": doc["counts"]["skipped"],
+            f"resume_{rows}_cpu_s": cpu_of(fh("jobs", path, "--out-dir", out, "--workers", 2))}
 
 
 def throughput(path: Path, folder: Path) -> dict:
@@ -100,6 +142,8 @@ def throughput(path: Path, folder: Path) -> dict:
         loads.append(os.getloadavg()[0])
         wall, result = timed(fh("jobs", path, "--out-dir", out, "--workers", workers))
         doc = report(out)
+        figures[f"row_cpu_s_median_{workers}w"] = float(np.median([r["cpu_s"] for r in doc["rows"]
+                                                                   if r["state"] == "done"]))
         figures[f"lines_per_min_{workers}w"] = doc["counts"]["done"] / wall * 60.0
         figures[f"failed_{workers}w"] = doc["counts"]["failed"]
         figures[f"wall_{workers}w_s"] = wall
@@ -203,7 +247,9 @@ def main() -> None:
     parser.add_argument("--kill-rows", type=int, default=12)
     parser.add_argument("--openjd-rows", type=int, default=12)
     parser.add_argument("--chunk", type=int, default=4)
-    parser.add_argument("--skip", default="", help="comma-separated parts to leave out: check,throughput,kill,openjd")
+    parser.add_argument("--resume-rows", type=int, default=1000)
+    parser.add_argument("--skip", default="", help="comma-separated parts to leave out: check,resume,throughput,"
+                                                   "kill,openjd")
     args = parser.parse_args()
     rows = 1000 if args.full else args.rows
     skip = set(filter(None, args.skip.split(",")))
@@ -214,6 +260,8 @@ def main() -> None:
         timed(fh("jobs", warm, "--out-dir", folder / "warm"))
         if "check" not in skip:
             figures.update(check_100k(folder))
+        if "resume" not in skip:
+            figures.update(resume_at_scale(folder, args.resume_rows))
         path = manifest(folder / "lines.csv", rows)
         if "throughput" not in skip:
             figures.update(throughput(path, folder))

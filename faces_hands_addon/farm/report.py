@@ -65,7 +65,8 @@ class RunReport:
                       + [{"line": n, "state": "not_run", "out": v} for n, v in self.not_run.items()],
                       key=lambda r: r["line"])
         doc = {"format": REPORT_FORMAT, "version": 1, "manifest": self.manifest,
-               "manifest_sha256": self.manifest_sha256, "extension_version": self.extension_version, "workers": self.workers,
+               "manifest_sha256": self.manifest_sha256, "extension_version": self.extension_version,
+               "workers": self.workers,
                "counts": {"rows": self.total, "done": len(self.done), "skipped": len(self.skipped),
                           "failed": len(self.failed), "not_run": len(self.not_run)},
                "wall_s": round(self.wall_s, 3), "rows_per_min": round(self.rows_per_min(), 3),

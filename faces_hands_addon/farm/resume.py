@@ -84,14 +84,37 @@ def row_key(row: JobRow, run: RunIdentity, hashes: InputHashes) -> tuple[str, di
 
 def read_sidecar(out_dir: Path, row: JobRow) -> dict | None:
     """The row's sidecar as written, or None (missing, not ours, unreadable)."""
-    path = out_dir / row.sidecar
+    path = os.path.join(out_dir, row.sidecar)
     try:
-        if path.stat().st_size > _MAX_SIDECAR_BYTES:
+        if os.path.getsize(path) > _MAX_SIDECAR_BYTES:
             return None
-        doc = json.loads(path.read_text(encoding="utf-8"))
+        with open(path, encoding="utf-8") as handle:
+            doc = json.load(handle)
     except (OSError, ValueError):
         return None
     return doc if isinstance(doc, dict) and doc.get("format") == SIDECAR_FORMAT else None
+
+
+class _Listing:
+    """The names in each folder of the output folder, listed once (so a row whose files do not exist yet
+    costs no file-system call); a name that differs only in case is asked of the file system (the same
+    file where it ignores case)."""
+
+    def __init__(self, out_dir: Path):
+        self.root, self.folders = str(out_dir), {}
+
+    def exists(self, name: str) -> bool:
+        folder, _, base = name.rpartition("/")
+        known = self.folders.get(folder)
+        if known is None:
+            try:
+                names = set(os.listdir(os.path.join(self.root, folder)))
+            except OSError:
+                names = set()
+            known = self.folders[folder] = (names, {n.casefold() for n in names})
+        if base in known[0]:
+            return True
+        return base.casefold() in known[1] and os.path.lexists(os.path.join(self.root, name))
 
 
 def _is_current(out_dir: Path, row: JobRow, key: str, doc: dict | None) -> bool:
@@ -102,7 +125,7 @@ def _is_current(out_dir: Path, row: JobRow, key: str, doc: dict | None) -> bool:
         return False
     for name, record in outputs.items():
         try:
-            stat = (out_dir / name).stat()
+            stat = os.stat(os.path.join(out_dir, name))
         except OSError:
             return False
         if not isinstance(record, dict) or (stat.st_size, stat.st_mtime_ns) != (record.get("bytes"),
@@ -122,20 +145,21 @@ class Plan:
 def plan_rows(rows: list[JobRow], out_dir: Path, run: RunIdentity, overwrite: bool = False) -> Plan:
     """Which rows are current and which to run; an existing output that no sidecar of this manifest
     claims was not written by a jobs run and is refused (kept) unless ``overwrite``."""
-    plan, hashes = Plan(), InputHashes()
+    plan, hashes, listing = Plan(), InputHashes(), _Listing(out_dir)
     for row in rows:
         try:
             key, inputs = row_key(row, run, hashes)
         except UserError as error:
             plan.problems.append(Problem(row.line, str(error)))
             continue
-        doc = read_sidecar(out_dir, row)
+        names = row.outputs() + (row.sidecar,)
+        present = [name for name in names if listing.exists(name)]
+        doc = read_sidecar(out_dir, row) if row.sidecar in present else None
         if _is_current(out_dir, row, key, doc):
             plan.current.append(row)
             continue
         ours = set(doc.get("outputs") or ()) | {row.sidecar} if doc else set()
-        foreign = [name for name in row.outputs() + (row.sidecar,)
-                   if name not in ours and os.path.lexists(out_dir / name)]
+        foreign = [name for name in present if name not in ours]
         if foreign and not overwrite:
             plan.problems.append(Problem(row.line, f"{', '.join(foreign)} exist(s) and a jobs run did not write "
                                                    "them; move them away or pass --overwrite"))

@@ -15,7 +15,7 @@ import math
 import os
 import posixpath
 import re
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
@@ -72,7 +72,7 @@ class JobRow:
 
     def fields(self) -> dict:
         """The row as plain data (what a worker receives and what its key is made of, line excepted)."""
-        return asdict(self)
+        return {name: getattr(self, name) for name in self.__slots__}
 
     @classmethod
     def from_fields(cls, fields: dict) -> "JobRow":

@@ -55,6 +55,12 @@ def written_since(mark: int) -> list[Path]:
     return list(_LEDGER[mark:])
 
 
+def note_written(paths) -> None:
+    """Record files another process moved into place for this command (a jobs worker's rows), so an
+    interrupted command names them too."""
+    _LEDGER.extend(Path(p) for p in paths)
+
+
 def same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
     """``a`` and ``b`` name the same file (same resolved path, or the same inode through a link)."""
     a, b = Path(a).expanduser(), Path(b).expanduser()

@@ -19,6 +19,7 @@ from ...faces_hands_addon.farm.openjd import (asset_references, job_template, op
 from ...faces_hands_addon.farm.report import RunReport, merge_reports, write_report
 from ...faces_hands_addon.farm.resume import Plan, file_sha256, remove_stale_staging
 from ...faces_hands_addon.farm.rows import FARM_FOLDER, REPORT_NAME, JobRow
+from ..common.interrupts import raise_pending
 from .pool import Pool, ProgressLine, send
 from .runner import RowRunner, extension_version, peak_rss_mb
 
@@ -46,8 +47,10 @@ def _attempt(runner: RowRunner, row: JobRow, key: str, inputs: dict) -> tuple[di
     try:
         return runner.run(row, key, inputs), ""
     except UserError as error:
+        raise_pending()             # a signal that a Blender operator turned into an error is an interrupt
         return None, str(error)
     except Exception as error:  # a bug in one row must not cost the other rows
+        raise_pending()
         return None, f"internal error: {type(error).__name__}: {error}"
 
 
@@ -97,6 +100,9 @@ def run_local(args, manifest: CheckedManifest, plan: Plan) -> int:
         if plan.todo:
             Pool(_worker_command(args, out_dir), workers, out_dir, report, dict(os.environ),
                  ProgressLine(args.quiet)).run(plan.todo)
+    except KeyboardInterrupt:
+        print(report.summary() + f"\ninterrupted: the rows not run are redone by the next run; report: {path}")
+        raise
     finally:
         report.wall_s = time.monotonic() - started
         write_report(path, report)

@@ -6,9 +6,11 @@ Each worker runs ``jobs --serve`` and speaks JSON lines: rows come in on its sta
 it answers on its standard output, on lines marked ``FHJOB`` (Blender's own start-up lines on the same
 stream are logged, not parsed), and everything else it prints goes to its log in ``.fh-farm/logs``.
 The first row runs alone (every worker starts meanwhile): a cold shape cache is filled once, not by every
-worker at the same time. Because a worker holds one row at a time, a worker that dies (killed, out of memory, a crash in C) costs
-exactly that row: it is reported failed, its staging folder is removed, a new worker takes its place, and a
-rerun of the manifest redoes the row. No Blender API here: the pool only starts processes.
+worker at the same time. Because a worker holds one row at a time, a worker that dies (killed, out of
+memory, a crash in C) costs exactly that row: it is reported failed, its staging folder is removed, a new
+worker takes its place, and a rerun of the manifest redoes the row. On an interrupt the workers are
+stopped (SIGTERM: a row under way leaves its files as they were), the rows they finished meanwhile are
+recorded, the rest reported as not run. No Blender API here: the pool only starts processes.
 """
 from __future__ import annotations
 
@@ -26,6 +28,7 @@ from pathlib import Path
 
 from ...faces_hands_addon.farm.report import RunReport, progress_line
 from ...faces_hands_addon.farm.rows import FARM_FOLDER, JobRow
+from ..common.outputs import note_written
 
 __all__ = ["MARK", "Pool", "send", "ProgressLine"]
 
@@ -153,14 +156,19 @@ class Pool:
             worker.ready, worker.staging = True, message.get("staging", "")
         elif "done" in message or "failed" in message:
             self._warmed()
-            row = worker.row[0]
-            if "done" in message:
-                self.report.done[row.line] = {"out": row.out, "seconds": message["seconds"],
-                                              "cpu_s": message.get("cpu_s"), "worker": worker.number}
-            else:
-                self.report.fail(row.line, row.out, message["failed"])
-            worker.row = None
+            self._record(worker, message)
         self._feed(worker)
+
+    def _record(self, worker: _Worker, message: dict) -> None:
+        """A worker's row is over: done (its files noted as written) or failed with the reason."""
+        row = worker.row[0]
+        if "done" in message:
+            self.report.done[row.line] = {"out": row.out, "seconds": message["seconds"],
+                                          "cpu_s": message.get("cpu_s"), "worker": worker.number}
+            note_written(self.out_dir / name for name in row.outputs() + (row.sidecar,))
+        else:
+            self.report.fail(row.line, row.out, message["failed"])
+        worker.row = None
 
     def _warmed(self) -> None:
         """The first row is over: its target shapes are in the cache, every ready worker takes a row."""
@@ -221,23 +229,33 @@ class Pool:
             self.pending.clear()
 
     def _stop_all(self, interrupted: bool = False) -> None:
+        """Stop every worker (``interrupted``: at once, SIGTERM: its row's staging goes, its files stay as they
+        were); rows they finished meanwhile are recorded, the others reported as not run."""
         for worker in self.running.values():
-            if interrupted and worker.row is not None:
-                self.report.not_run[worker.row[0].line] = worker.row[0].out
             self._write(worker, _STOP)
             if interrupted and worker.process.poll() is None:
                 worker.process.terminate()
-        for row, _, _ in self.pending if interrupted else ():
-            self.report.not_run[row.line] = row.out
-        for worker in list(self.running.values()):
+        for worker in self.running.values():
             try:
                 worker.process.wait(timeout=60)
             except subprocess.TimeoutExpired:
                 worker.process.kill()
                 worker.process.wait()
+            worker.reader.join(timeout=10)
+        while not self.events.empty():                  # what the workers said before they stopped
+            number, message = self.events.get_nowait()
+            worker = self.running.get(number)
+            over = message is not None and ("done" in message or "failed" in message)
+            if over and worker is not None and worker.row is not None:
+                self._record(worker, message)
+        for worker in self.running.values():
+            if worker.row is not None:
+                self.report.not_run[worker.row[0].line] = worker.row[0].out
             if worker.staging:
                 shutil.rmtree(worker.staging, ignore_errors=True)
             worker.log.close()
+        for row, _, _ in self.pending if interrupted else ():
+            self.report.not_run[row.line] = row.out
         self.running.clear()
 
     def _draw(self, final: bool = False) -> None:
