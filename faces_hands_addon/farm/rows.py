@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Callable
 
 from ..core.errors import UserError
-from ..core.files import FileClaims
+from ..core.files import FileClaims, Folders
 from .manifest import Problem, RawRow
 
 __all__ = ["ACTIONS", "OUT_SUFFIXES", "FARM_FOLDER", "SIDECAR_SUFFIX", "REPORT_NAME", "JobRow", "Once", "RowChecks",
@@ -120,7 +120,7 @@ class Once:
 
     def __init__(self):
         self._seen: dict[tuple[str, str], object] = {}
-        self.folders: dict[str, str] = {}       # resolved folders, for the run's FileClaims
+        self.folders = Folders()                # folders resolved and listed once, for the run's FileClaims
 
     def __call__(self, kind: str, value: str, check: Callable[[str], object]):
         key = (kind, value)

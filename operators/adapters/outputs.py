@@ -12,14 +12,22 @@ import tempfile
 from pathlib import Path
 
 from ...faces_hands_addon.core.errors import UserError
-from ...faces_hands_addon.core.files import FileClaims
+from ...faces_hands_addon.core.files import FileClaims, Folders
 
 
-def check_output_path(path: str | os.PathLike, suffixes: tuple[str, ...]) -> Path:
-    """Validate an output path before any work starts (suffix known, not a directory)."""
+def check_output_path(path: str | os.PathLike, suffixes: tuple[str, ...], folders: Folders | None = None) -> Path:
+    """Validate an output path before any work starts (suffix known, not a directory, a folder that takes
+    files); ``folders``: the folders of a whole jobs CSV, each looked at once."""
     out = Path(path).expanduser()
     if out.suffix.lower() not in suffixes:
         raise UserError(f"output {out} must end with one of {', '.join(suffixes)}")
+    if folders is not None:
+        real, name = folders.split(out)
+        if folders.listed(real, name) and os.path.isdir(os.path.join(real, name)):
+            raise UserError(f"output {out} is a directory; give a file name")
+        if folders.writable(real) is False:
+            raise UserError(f"cannot write into {out.parent}")
+        return out
     if out.is_dir():
         raise UserError(f"output {out} is a directory; give a file name")
     if out.parent.exists() and not os.access(out.parent, os.W_OK):
@@ -72,10 +80,10 @@ def same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
         return False
 
 
-def refuse_collisions(outputs: dict[str, Path], inputs: dict[str, Path], folders: dict | None = None) -> None:
+def refuse_collisions(outputs: dict[str, Path], inputs: dict[str, Path], folders=None) -> None:
     """Refuse when an output would replace an input or another output (``label -> path`` each); every
-    path is resolved once (``FileClaims``; ``folders``: resolved folders shared by the rows of a jobs CSV),
-    not once per pair."""
+    path is resolved once (``FileClaims``; ``folders``: the ``core.files.Folders`` shared by the rows of a
+    jobs CSV), not once per pair."""
     known = FileClaims(folders)
     for label, source in inputs.items():
         if source is not None:

@@ -35,13 +35,14 @@ COLUMNS = ("out", "text", "audio", "transcript", "voice", "rate", "sheet", "view
 ANIMATIONS = ("weights", "frames")
 
 
-def _optional_path(spec: dict, key: str, suffixes) -> Path | None:
+def _optional_path(spec: dict, key: str, suffixes, folders=None) -> Path | None:
     value = spec.get(key)
-    return check_output_path(value, suffixes) if value else None
+    return check_output_path(value, suffixes, folders) if value else None
 
 
-def _check_wav(wav: Path, overwrite: bool) -> None:
-    if wav.exists() and not overwrite and not written_here(wav):
+def _check_wav(wav: Path, overwrite: bool, folders=None) -> None:
+    exists = folders.listed(*folders.split(wav)) if folders is not None else wav.exists()
+    if exists and not overwrite and not written_here(wav):
         raise UserError(f"{wav} exists and was not written by Faces & Hands, so it is left as it is: choose "
                         "another output name, or pass --overwrite to replace it")
 
@@ -68,7 +69,8 @@ def checked_spec(raw: dict, fps: float, rig_path=None, jobs_path=None, overwrite
     spec = {k: (v.strip() if isinstance(v, str) else v) for k, v in raw.items() if k}
     if not spec.get("out"):
         raise UserError("no output: the 'out' column (--out) is empty")
-    out = check_output_path(spec["out"], OUT_SUFFIXES)
+    folders = once.folders if once is not None else None
+    out = check_output_path(spec["out"], OUT_SUFFIXES, folders)
     text, audio = spec.get("text") or "", spec.get("audio") or ""
     if text and audio:
         raise UserError("give text or audio, not both")
@@ -82,10 +84,10 @@ def checked_spec(raw: dict, fps: float, rig_path=None, jobs_path=None, overwrite
     view = spec.get("view") or "front"
     if view not in VIEWS:
         raise UserError(f"unknown sheet view {view!r}; use one of {', '.join(VIEWS)}")
-    live_link = _optional_path(spec, "live_link", (".csv",))
+    live_link = _optional_path(spec, "live_link", (".csv",), folders)
     if live_link is not None and animation != "weights":
         raise UserError("a Live Link CSV needs the weights animation (leave out --animation frames)")
-    cues = _optional_path(spec, "cues", (".tsv", ".txt", ".json"))
+    cues = _optional_path(spec, "cues", (".tsv", ".txt", ".json"), folders)
     rate = number_field("rate", spec.get("rate"), 175, RATE_RANGE)
     style, seed, emotion = _nonverbal(spec, once or Once())
     if audio:
@@ -98,12 +100,13 @@ def checked_spec(raw: dict, fps: float, rig_path=None, jobs_path=None, overwrite
                         "cache bakes; use the weights animation (the default), which has no frame limit")
     wav = out.with_suffix(".wav")
     outputs = {"the output": out, "the WAV beside the output": wav,
-               "the sheet": _optional_path(spec, "sheet", (".png",)), "the Live Link CSV": live_link,
+               "the sheet": _optional_path(spec, "sheet", (".png",), folders), "the Live Link CSV": live_link,
                "the mouth cues": cues}
-    refuse_collisions(outputs, {"audio": Path(audio) if audio else None,
-                                "rig": Path(rig_path) if rig_path else None,
-                                "jobs file": Path(jobs_path) if jobs_path else None}, once and once.folders)
-    _check_wav(wav, overwrite)
+    if once is None:            # one line; a jobs CSV checks every row's files at once (_check_rows)
+        refuse_collisions(outputs, {"audio": Path(audio) if audio else None,
+                                    "rig": Path(rig_path) if rig_path else None,
+                                    "jobs file": Path(jobs_path) if jobs_path else None})
+    _check_wav(wav, overwrite, folders)
     spec.update(out=str(out), text=text, audio=audio or None, rate=rate, animation=animation, view=view,
                 live_link=live_link, cues=cues, style=style, seed=seed, emotion=emotion, outputs=[p for p in outputs.values() if p is not None])
     return spec
@@ -163,21 +166,27 @@ def _check_rows(rows: list[dict], fps, rig_path, jobs_path, overwrite, report: B
     in the rows: files are claimed in ``FileClaims``, the jobs manifests' check)."""
     once = Once()
     inputs = FileClaims(once.folders)
+    for path, what in ((jobs_path, "the jobs file"), (rig_path, "the rig")):
+        if path:
+            inputs.add(path, what)
     for number, row in enumerate(rows, start=2):
         if (row.get("audio") or "").strip():
-            inputs.add(row["audio"].strip(), number)
+            inputs.add(row["audio"].strip(), f"the audio input of row {number}")
     specs, claimed = {}, FileClaims(once.folders)
     for number, row in enumerate(rows, start=2):
         try:
             spec = checked_spec(row, fps, rig_path, jobs_path, overwrite, once)
-            for path in spec["outputs"]:
-                owner, reader = claimed.owner(path), inputs.owner(path)
+            places = [once.folders.split(path) for path in spec["outputs"]]
+            if len(set(places)) < len(places):
+                raise UserError("writes one file twice (two of its outputs are the same file)")
+            for path, place in zip(spec["outputs"], places):
+                owner, reader = claimed.owner_at(*place), inputs.owner_at(*place)
                 if owner is not None:
                     raise UserError(f"writes {path}, which row {owner} writes too")
                 if reader is not None:
-                    raise UserError(f"writes {path}, which is the audio input of row {reader}")
-            for path in spec["outputs"]:
-                claimed.add(path, number)
+                    raise UserError(f"writes {path}, which is {reader}")
+            for place in places:
+                claimed.add_at(*place, number)
             specs[number] = spec
         except UserError as error:
             report.fail(number, (row.get("out") or "").strip(), str(error))
