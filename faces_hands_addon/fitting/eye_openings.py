@@ -12,7 +12,8 @@ opening): the largest such region around the landmark eye that stays clear of th
 face turns back steeply beside the eye (a narrow face: its temple falls more than ``DEPTH`` behind the lids
 within a quarter of the eye's width of the outer canthus), that region runs off the view through the
 canthus; the test is then made deeper (``DEPTH_STEPS``) until the opening stands on its own (a socket's
-lining or a hole lies 10-40 mm behind the lids, the temple a few millimetres). Its top and bottom edge,
+lining or a hole lies 10-40 mm behind the lids, the temple a few millimetres); where there is none even
+then, the view is made taller (``REACH``: a lid contour fitted 3 mm too high cut the opening off). Its top and bottom edge,
 column by column, are the lid margins: the points of the skin just above and below it.
 """
 from __future__ import annotations
@@ -31,7 +32,8 @@ MIN_HEIGHT = 0.001   # m: an opening must be at least this tall somewhere
 MIN_WIDTH = 0.4      # ... and at least this share of the landmark eye's width
 SAMPLES = 17         # points per lid margin (corners included)
 EDGE = 4             # pixels beyond an opening's edge over which the margin's front is looked for
-REACH = 0.9          # the view reaches this share of the landmark eye's width above and below its centre
+REACH = (0.6, 0.9)   # the view reaches this share of the landmark eye's width above and below its centre;
+                     # the wider view only where the narrower one has no opening
 DEPTH_STEPS = (1, 2, 4, 8)   # DEPTH times these: deeper tests where the shallower one's hollow runs off the view
 
 
@@ -114,12 +116,15 @@ def find_eye_opening(vertices: np.ndarray, faces: np.ndarray, upper: np.ndarray,
     width = float(np.linalg.norm(upper[0] - upper[-1]))
     centre_z = float(contour[:, 2].mean())
     xs = np.arange(contour[:, 0].min() - 0.25 * width, contour[:, 0].max() + 0.25 * width, PIXEL)
-    zs = np.arange(centre_z - REACH * width, centre_z + REACH * width, PIXEL)
-    depth = _depth_image(vertices, faces, xs, zs)
     order = np.argsort(contour[:, 0], kind="stable")
     lid_depth = np.interp(xs, contour[order, 0], contour[order, 1])     # the lids' depth along the eye
-    for factor in DEPTH_STEPS:
-        found = _opening_region(depth > lid_depth[None] + factor * DEPTH, width)
+    for reach in REACH:
+        zs = np.arange(centre_z - reach * width, centre_z + reach * width, PIXEL)
+        depth = _depth_image(vertices, faces, xs, zs)
+        for factor in DEPTH_STEPS:
+            found = _opening_region(depth > lid_depth[None] + factor * DEPTH, width)
+            if found is not None:
+                break
         if found is not None:
             break
     else:
