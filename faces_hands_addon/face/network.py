@@ -47,6 +47,7 @@ __all__ = ["SkinMaterial", "MATERIAL_RANGES", "FaceNetwork", "SliverTies", "buil
 
 SKIN_EDGE_STIFFNESS = 1.0     # N/m; the scale is free (muscles move anchors kinematically)
 COMPRESSION_SOFTNESS = 0.25   # skin yields under compression (a membrane without bending would buckle)
+TEMPLATE_EDGE = 0.0041        # m: the default head's median skin edge, where COMPRESSION_SOFTNESS was set
 CORNER_RADIUS, CORNER_GAIN = 0.0035, 40.0    # m around each mouth corner (the modiolus' knot); its attachment gain
 CANTHUS_GAIN = 40.0          # attachment gain on a canthus (the canthal tendons tie it to the orbit), as CORNER_GAIN
 OVER_BONE = 0.3             # fitted heads: the skull guard holds skin whose bone normal faces its own this much
@@ -226,8 +227,22 @@ def _skin_springs(template: HeadTemplate, material: SkinMaterial, lid_weight: np
     k_soft = np.where(lid_edge, 0.4 * k, k)                 # thin lid skin stretches easily
     k_stiff = np.where(edge_soft, k_soft, k * material.stiff_ratio)
     springs = SpringSet(edges[:, 0], edges[:, 1], rest, k_soft, k_stiff, material.strain_threshold,
-                        COMPRESSION_SOFTNESS * k_soft)
+                        compression_softness(rest, skin.fitted) * k_soft)
     return springs, edges, k_stiff
+
+
+def compression_softness(rest: np.ndarray, fitted: bool) -> float:
+    """The skin springs' stiffness under compression over their stiffness in tension. A membrane without
+    bending stiffness on an elastic foundation (the attachment pairs, stiffness per node ~ the node's area,
+    ``h^2``) buckles where its compressed springs' pull sideways (~ force / ``h``) beats the foundation: the
+    compression it withstands falls as ``h^3`` for a mesh of edge length ``h``. ``COMPRESSION_SOFTNESS`` was
+    set on the default head (median edge ``TEMPLATE_EDGE``); an artist's finer mesh keeps the same margin
+    with it scaled by ``(h / TEMPLATE_EDGE)^3`` (``h`` its median edge, head space): a Catmull-Clark head of
+    69k vertices (median edge ~0.8 mm) folded rows of 0.4 mm triangles wherever the skin was pushed together
+    (browDownLeft 117 inverted triangles, with 0 in its attachment targets), none with the scaled value."""
+    if not fitted or not len(rest):
+        return COMPRESSION_SOFTNESS
+    return COMPRESSION_SOFTNESS * min(1.0, float(np.median(rest)) / TEMPLATE_EDGE) ** 3
 
 
 def _attachment_pairs(template: HeadTemplate, material: SkinMaterial, lid_weight: np.ndarray):

@@ -8,8 +8,13 @@ whole eye contour can settle on one lid, and the landmarks' own upper and lower 
 other on the same skin. So the opening is looked for on the mesh itself: a front view (orthographic, along
 +Y in head space) of the skin around the landmark eye is rasterised, and the opening is the region where
 the first skin hit is missing (a hole) or lies well behind the lids (a socket's lining seen through the
-opening): the largest such region around the landmark eye that stays clear of the view's edges. Its top
-and bottom edge, column by column, are the lid margins: the points of the skin just above and below it.
+opening): the largest such region around the landmark eye that stays clear of the view's edges. Where the
+face turns back steeply beside the eye (a narrow face: its temple falls more than ``DEPTH`` behind the lids
+within a quarter of the eye's width of the outer canthus), that region runs off the view through the
+canthus; the test is then made deeper (``DEPTH_STEPS``) until the opening stands on its own (a socket's
+lining or a hole lies 10-40 mm behind the lids, the temple a few millimetres); where there is none even
+then, the view is made taller (``REACH``: a lid contour fitted 3 mm too high cut the opening off). Its top and bottom edge,
+column by column, are the lid margins: the points of the skin just above and below it.
 """
 from __future__ import annotations
 
@@ -27,6 +32,9 @@ MIN_HEIGHT = 0.001   # m: an opening must be at least this tall somewhere
 MIN_WIDTH = 0.4      # ... and at least this share of the landmark eye's width
 SAMPLES = 17         # points per lid margin (corners included)
 EDGE = 4             # pixels beyond an opening's edge over which the margin's front is looked for
+REACH = (0.6, 0.9)   # the view reaches this share of the landmark eye's width above and below its centre;
+                     # the wider view only where the narrower one has no opening
+DEPTH_STEPS = (1, 2, 4, 8)   # DEPTH times these: deeper tests where the shallower one's hollow runs off the view
 
 
 class EyeOpening:
@@ -77,19 +85,9 @@ def _margin(depth: np.ndarray, columns: np.ndarray, rows: np.ndarray, step: int,
     return np.column_stack([xs[columns], y, zs[edge]])
 
 
-def find_eye_opening(vertices: np.ndarray, faces: np.ndarray, upper: np.ndarray,
-                     lower: np.ndarray) -> EyeOpening | None:
-    """The eye opening around the landmark lid contours ``upper``/``lower`` (k, 3; corner to corner, head
-    space) on the skin ``vertices``/``faces`` (module docstring); None if the mesh has none there."""
-    contour = np.vstack([upper, lower])
-    width = float(np.linalg.norm(upper[0] - upper[-1]))
-    centre_z = float(contour[:, 2].mean())
-    xs = np.arange(contour[:, 0].min() - 0.25 * width, contour[:, 0].max() + 0.25 * width, PIXEL)
-    zs = np.arange(centre_z - 0.6 * width, centre_z + 0.6 * width, PIXEL)
-    depth = _depth_image(vertices, faces, xs, zs)
-    order = np.argsort(contour[:, 0], kind="stable")
-    lid_depth = np.interp(xs, contour[order, 0], contour[order, 1])     # the lids' depth along the eye
-    hollow = depth > lid_depth[None] + DEPTH
+def _opening_region(hollow: np.ndarray, width: float):
+    """The largest region of ``hollow`` pixels clear of the view's edges, if it is tall and wide enough:
+    its columns, top and bottom row per column, and its height (m); None otherwise."""
     label, count = ndimage.label(hollow)
     if count == 0:
         return None
@@ -102,11 +100,36 @@ def find_eye_opening(vertices: np.ndarray, faces: np.ndarray, upper: np.ndarray,
         return None
     region = label == best
     columns = np.flatnonzero(region.any(axis=0))
-    top = len(zs) - 1 - np.argmax(region[::-1, columns], axis=0)      # highest opening pixel per column
+    top = region.shape[0] - 1 - np.argmax(region[::-1, columns], axis=0)      # highest opening pixel per column
     bottom = np.argmax(region[:, columns], axis=0)
     height = float((top - bottom + 1).max() * PIXEL)
     if height < MIN_HEIGHT or (columns[-1] - columns[0] + 1) * PIXEL < MIN_WIDTH * width:
         return None
+    return columns, top, bottom, height
+
+
+def find_eye_opening(vertices: np.ndarray, faces: np.ndarray, upper: np.ndarray,
+                     lower: np.ndarray) -> EyeOpening | None:
+    """The eye opening around the landmark lid contours ``upper``/``lower`` (k, 3; corner to corner, head
+    space) on the skin ``vertices``/``faces`` (module docstring); None if the mesh has none there."""
+    contour = np.vstack([upper, lower])
+    width = float(np.linalg.norm(upper[0] - upper[-1]))
+    centre_z = float(contour[:, 2].mean())
+    xs = np.arange(contour[:, 0].min() - 0.25 * width, contour[:, 0].max() + 0.25 * width, PIXEL)
+    order = np.argsort(contour[:, 0], kind="stable")
+    lid_depth = np.interp(xs, contour[order, 0], contour[order, 1])     # the lids' depth along the eye
+    for reach in REACH:
+        zs = np.arange(centre_z - reach * width, centre_z + reach * width, PIXEL)
+        depth = _depth_image(vertices, faces, xs, zs)
+        for factor in DEPTH_STEPS:
+            found = _opening_region(depth > lid_depth[None] + factor * DEPTH, width)
+            if found is not None:
+                break
+        if found is not None:
+            break
+    else:
+        return None
+    columns, top, bottom, height = found
     upper_m = _margin(depth, columns, top, 1, xs, zs, lid_depth)
     lower_m = _margin(depth, columns, bottom, -1, xs, zs, lid_depth)
     pick = np.unique(np.linspace(0, len(columns) - 1, SAMPLES).round().astype(int))
