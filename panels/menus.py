@@ -6,7 +6,8 @@ from __future__ import annotations
 
 import bpy
 
-ADD_ITEMS = (("faces_hands.build_face_rig", "Face Rig (Default Head)", "USER"),
+ADD_ITEMS = (("faces_hands.add_character", "Character", "ARMATURE_DATA"),
+             ("faces_hands.build_face_rig", "Face Rig (Default Head)", "USER"),
              ("faces_hands.morph_new_face", "Morphable Face", "SHAPEKEY_DATA"),
              ("faces_hands.build_hand_rig", "Hand Rig", "VIEW_PAN"),
              ("faces_hands.add_default_assets", "Default Assets (Skull, Jaw, Face)", "ASSET_MANAGER"))

@@ -1,0 +1,96 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The character as Blender objects: one collection holding the armature (the root, standard for game
+engines and retargeting tools) and, parented to it, the body mesh (quads, UVs, materials, one vertex group
+per deforming bone, an Armature modifier). The body mesh becomes the rig object once the character rig is
+stored on it (``common.rig_store``): its shape keys are the face's, its controls the character's.
+"""
+from __future__ import annotations
+
+import bpy
+import numpy as np
+from mathutils import Vector
+
+from ..common.rig_store import PART_ROLE
+from . import materials
+
+__all__ = ["ARMATURE_ROLE", "create_character_objects", "armature_of", "body_mesh"]
+
+ARMATURE_ROLE = "character_armature"
+SUBDIVISION = "Subdivision"
+
+
+def body_mesh(name: str, mesh) -> bpy.types.Mesh:
+    """A Blender mesh of the engine's :class:`CharacterMesh` (quads, per-corner UVs, material slots)."""
+    data = bpy.data.meshes.new(name)
+    quads = np.ascontiguousarray(mesh.quads, dtype=np.int32)
+    data.vertices.add(len(mesh.vertices))
+    data.vertices.foreach_set("co", np.ascontiguousarray(mesh.vertices, dtype=np.float32).ravel())
+    data.loops.add(quads.size)
+    data.loops.foreach_set("vertex_index", quads.ravel())
+    data.polygons.add(len(quads))
+    data.polygons.foreach_set("loop_start", np.arange(0, quads.size, 4, dtype=np.int32))
+    data.polygons.foreach_set("use_smooth", np.ones(len(quads), dtype=bool))
+    data.polygons.foreach_set("material_index", np.ascontiguousarray(mesh.material_index, dtype=np.int32))
+    layer = data.uv_layers.new(name="UVMap")
+    layer.data.foreach_set("uv", np.ascontiguousarray(mesh.corner_uvs, dtype=np.float32).ravel())
+    data.update(calc_edges=True)
+    data.validate(clean_customdata=False)
+    return data
+
+
+def _armature(context, skeleton, name: str, collection):
+    data = bpy.data.armatures.new(f"{name} Armature")
+    arm = bpy.data.objects.new(f"{name} Armature", data)
+    collection.objects.link(arm)
+    arm[PART_ROLE] = ARMATURE_ROLE
+    data.display_type = "OCTAHEDRAL"
+    view_layer = context.view_layer
+    previous = view_layer.objects.active
+    view_layer.objects.active = arm
+    bpy.ops.object.mode_set(mode="EDIT")
+    try:
+        for k, bone_name in enumerate(skeleton.names):
+            bone = data.edit_bones.new(bone_name)
+            bone.head, bone.tail = Vector(skeleton.heads[k]), Vector(skeleton.tails[k])
+            bone.roll = float(skeleton.rolls[k])
+            if skeleton.parents[k] >= 0:
+                bone.parent = data.edit_bones[skeleton.names[skeleton.parents[k]]]
+                bone.use_connect = bool(skeleton.connected[k])
+    finally:
+        bpy.ops.object.mode_set(mode="OBJECT")
+        view_layer.objects.active = previous
+    return arm
+
+
+def _weights(obj, skeleton) -> None:
+    """One vertex group per weighted bone (engine weights: at most a few influences, summing to 1)."""
+    for bone, (ids, values) in skeleton.weights.items():
+        group = obj.vertex_groups.new(name=bone)
+        for index, value in zip(ids.tolist(), values.tolist()):
+            group.add([index], value, "REPLACE")
+
+
+def create_character_objects(context, character, name: str = "FH Character"):
+    """Collection, armature (root) and body mesh (its child, skinned); returns (armature, body)."""
+    collection = bpy.data.collections.new(name)
+    context.scene.collection.children.link(collection)
+    arm = _armature(context, character.skeleton, name, collection)
+    body = bpy.data.objects.new(name, body_mesh(f"{name} Body", character.mesh))
+    collection.objects.link(body)
+    body.parent = arm
+    for material in materials.character_materials():
+        body.data.materials.append(material)
+    _weights(body, character.skeleton)
+    modifier = body.modifiers.new("Armature", "ARMATURE")
+    modifier.object = arm
+    subdivision = body.modifiers.new(SUBDIVISION, "SUBSURF")
+    subdivision.levels, subdivision.render_levels = 0, 1       # renders smooth, the viewport stays fast
+    return arm, body
+
+
+def armature_of(body):
+    """The armature that deforms ``body`` (its Armature modifier's object), or None."""
+    for modifier in getattr(body, "modifiers", ()):
+        if modifier.type == "ARMATURE" and modifier.object is not None:
+            return modifier.object
+    return None

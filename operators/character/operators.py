@@ -1,0 +1,34 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Character operators: *Add > Faces & Hands > Character*."""
+from __future__ import annotations
+
+import bpy
+
+from ..common.jobs import Job
+from ..common.modal import JobOperator
+from .jobs import BuildCharacterJob
+
+SKELETON_ITEMS = [
+    ("game_engine", "Game Engine", "MPFB2's game-engine skeleton (53 bones, Unreal-style names): what engines and "
+                                   "retargeting tools expect"),
+    ("default", "MPFB2 Default", "MPFB2's default skeleton (163 bones: face, toes, breasts)"),
+    ("rigify", "Rigify", "MPFB2's Rigify meta-rig, generated into a Rigify control rig"),
+]
+
+
+class FH_OT_add_character(JobOperator, bpy.types.Operator):
+    """Add the default character: MakeHuman's MPFB2 body (CC0) with its eyes, teeth and tongue, skinned to an armature, with the face rig fitted to its head"""
+
+    bl_idname = "faces_hands.add_character"
+    bl_label = "Add Character"
+    bl_options = {"REGISTER", "UNDO"}
+
+    name: bpy.props.StringProperty(name="Name", default="FH Character", description="Name of the character object")
+    skeleton: bpy.props.EnumProperty(name="Skeleton", items=SKELETON_ITEMS, default="game_engine",
+                                     description="The armature the body is skinned to")
+
+    def make_job(self, context) -> Job:
+        return BuildCharacterJob(self.name, self.skeleton)
+
+
+CLASSES = [FH_OT_add_character]
