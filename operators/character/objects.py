@@ -10,10 +10,13 @@ import bpy
 import numpy as np
 from mathutils import Vector
 
-from ..common.rig_store import PART_ROLE
+from ...faces_hands_addon.anim.layers import weighted_driver
+from ...faces_hands_addon.character.head import WIDE
+from ..common import controls
+from ..common.rig_store import PART_ROLE, store_rig
 from . import materials
 
-__all__ = ["ARMATURE_ROLE", "create_character_objects", "armature_of", "body_mesh"]
+__all__ = ["ARMATURE_ROLE", "create_character_objects", "armature_of", "body_mesh", "head_drivers"]
 
 ARMATURE_ROLE = "character_armature"
 SUBDIVISION = "Subdivision"
@@ -70,8 +73,10 @@ def _weights(obj, skeleton) -> None:
             group.add([index], value, "REPLACE")
 
 
-def create_character_objects(context, character, name: str = "FH Character"):
-    """Collection, armature (root) and body mesh (its child, skinned); returns (armature, body)."""
+def create_character_objects(context, rig, name: str = "FH Character"):
+    """Collection, armature (root) and body mesh (its child, skinned, the rig object: controls, engine state,
+    head drivers) of the character rig ``rig``; returns (armature, body)."""
+    character = rig.character
     collection = bpy.data.collections.new(name)
     context.scene.collection.children.link(collection)
     arm = _armature(context, character.skeleton, name, collection)
@@ -85,7 +90,24 @@ def create_character_objects(context, character, name: str = "FH Character"):
     modifier.object = arm
     subdivision = body.modifiers.new(SUBDIVISION, "SUBSURF")
     subdivision.levels, subdivision.render_levels = 0, 1       # renders smooth, the viewport stays fast
+    controls.ensure_controls(body, rig.control_specs())
+    store_rig(body, rig)
+    head_drivers(body, arm, rig)
     return arm, body
+
+
+def head_drivers(body, arm, rig) -> None:
+    """The neck and head bones' Euler angles driven by the mixed head controls (``character.head``)."""
+    specs = rig.control_specs()
+    for bone, axes in rig.terms.items():
+        pose_bone = arm.pose.bones[bone]
+        pose_bone.rotation_mode = "XYZ"
+        for index, terms in enumerate(axes):
+            if not terms:
+                continue
+            used = [control for control, _ in terms]
+            expression = weighted_driver(terms, specs, -WIDE, WIDE, controls.available_layers(body, used))
+            controls.add_mixed_driver(pose_bone, "rotation_euler", body, expression, index)
 
 
 def armature_of(body):

@@ -8,7 +8,9 @@ import bpy
 from ..common.jobs import run_job
 from .jobs import BuildCharacterJob
 
-__all__ = ["build_character_object"]
+__all__ = ["KIND", "build_character_object"]
+
+KIND = "character"
 
 
 def build_character_object(progress=None, name: str = "FH Character", skeleton: str = "game_engine"):

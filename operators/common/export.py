@@ -196,7 +196,8 @@ def _write(path: Path, clip: str, sampled: bool = True, armature: bool = False) 
             filepath=str(path), export_format="GLB", use_selection=True, export_apply=False, export_morph=True,
             export_morph_normal=False, export_animations=True, export_anim_slide_to_zero=True, export_yup=True,
             export_animation_mode="ACTIVE_ACTIONS", export_nla_strips_merged_animation_name=clip,
-            export_frame_range=True, export_optimize_animation_size=False, export_force_sampling=sampled)
+            export_frame_range=True, export_optimize_animation_size=False, export_force_sampling=sampled,
+            export_bake_animation=armature)     # a character's bones move by drivers: sampled without an action
         if not sampled:
             _name_clip(path, clip)
     else:

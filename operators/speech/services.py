@@ -14,7 +14,8 @@ from ...faces_hands_addon.core.errors import UserError
 from ..common.blendfile import open_blend
 from ..common.export import save_or_export
 from ..common.outputs import atomic_output
-from ..common.rig_store import find_rig
+from ..character import services as character
+from ..common.rig_store import is_rig
 from ..common.targets import write_live_link
 from ..common.timing import scene_fps, set_scene_fps
 from ..face import services as face, sheet
@@ -24,17 +25,25 @@ from . import apply, head as head_motion
 __all__ = ["run_line", "shared_default_rig", "phoneme_cells"]
 
 
+MASK = "mask"         # ``--rig mask``: the face-only default head instead of the default character
+
+
 def _prepare_rig(rig_path: str | None, fps: float, progress):
-    """The face rig of ``rig_path`` (or a new default head), with the scene at ``fps``."""
+    """The rig of ``rig_path`` (a face rig or a character in a .blend), the face-only default head for
+    ``"mask"``, or a new default character, with the scene at ``fps``."""
     try:
         check_fps(fps)
     except UserError:
         raise UserError(f"--fps {fps} is outside 1..240") from None
-    if rig_path:
-        open_blend(rig_path)
-        rig_obj = find_rig(bpy.data.objects, kind=face.KIND)
-    else:
+    if rig_path == MASK:
         rig_obj = face.build_default_rig_object(progress)
+    elif rig_path:
+        open_blend(rig_path)
+        rig_obj = next((o for o in bpy.data.objects if is_rig(o, face.KIND) or is_rig(o, character.KIND)), None)
+        if rig_obj is None:
+            raise UserError(f"{rig_path} holds no Faces & Hands face rig or character")
+    else:
+        rig_obj = character.build_character_object(progress)
     set_scene_fps(bpy.context.scene, fps)
     return rig_obj
 
@@ -146,7 +155,7 @@ def run_line(spec: dict, rig_path, fps, progress) -> list[Path]:
 
 
 def shared_default_rig(folder: str, fps: float, progress) -> str:
-    """Build the default head once into ``folder`` for every row of a jobs CSV; returns its path."""
+    """Build the default character once into ``folder`` for every row of a jobs CSV; returns its path."""
     _prepare_rig(None, fps, progress)
     rig_path = str(Path(folder) / "rig.blend")
     bpy.ops.wm.save_as_mainfile(filepath=rig_path, copy=True, check_existing=False)
