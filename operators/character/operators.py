@@ -26,9 +26,12 @@ class FH_OT_add_character(JobOperator, bpy.types.Operator):
     name: bpy.props.StringProperty(name="Name", default="FH Character", description="Name of the character object")
     skeleton: bpy.props.EnumProperty(name="Skeleton", items=SKELETON_ITEMS, default="game_engine",
                                      description="The armature the body is skinned to")
+    hands: bpy.props.BoolProperty(name="Hand Rigs", default=True,
+                                  description="Fit the anatomical hand rigs into the character's hands (their "
+                                              "muscles pose the finger bones)")
 
     def make_job(self, context) -> Job:
-        return BuildCharacterJob(self.name, self.skeleton)
+        return BuildCharacterJob(self.name, self.skeleton, self.hands)
 
 
 CLASSES = [FH_OT_add_character]
