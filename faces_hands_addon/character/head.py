@@ -26,12 +26,13 @@ __all__ = ["HEAD_CONTROLS", "HEAD_CHAINS", "TRACK_CONTROLS", "head_specs", "bone
 HEAD_CONTROLS = ("head_pitch", "head_yaw", "head_roll")
 #: the behaviour's head tracks (``speech.takes``) -> the character's controls
 TRACK_CONTROLS = {"head.pitch": "head_pitch", "head.yaw": "head_yaw", "head.roll": "head_roll"}
-#: the bones that turn the head, from the neck up, with their share of the turn (summing to 1); a Rigify
-#: character turns its generated control rig's neck and head controls
+#: the bones that turn the head, from the neck up, with their share of the turn (a chain's shares add up to
+#: the whole turn of the head); a Rigify character turns its generated control rig's neck and head controls,
+#: whose head does not inherit the neck's turn (Rigify's head follows the torso): it gets the whole turn
 HEAD_CHAINS = {
     "game_engine": (("neck_01", 0.4), ("head", 0.6)),
     "default": (("neck01", 0.15), ("neck02", 0.15), ("neck03", 0.15), ("head", 0.55)),
-    "rigify": (("neck", 0.4), ("head", 0.6)),
+    "rigify": (("neck", 0.4), ("head", 1.0)),
     "rigify_meta": (("spine.004", 0.2), ("spine.005", 0.2), ("spine.006", 0.6)),
 }
 #: world rotation vector (x, y, z) per unit of (pitch, yaw, roll): facing -Y, chin up is a negative turn
@@ -55,13 +56,14 @@ def chain_of(skeleton: CharacterSkeleton, generated_rigify: bool = True) -> tupl
     return HEAD_CHAINS[key]
 
 
-def bone_terms(skeleton: CharacterSkeleton, chain=None) -> dict[str, list[list[tuple[str, float]]]]:
+def bone_terms(skeleton: CharacterSkeleton, chain=None, rest: dict | None = None) -> dict[str, list[list[tuple[str, float]]]]:
     """bone -> for each Euler angle (X, Y, Z) the (control, weight) terms of its weighted sum (module
-    docstring). ``chain`` defaults to the skeleton's own head chain; the rest frames are the skeleton's."""
+    docstring). ``chain`` defaults to the skeleton's own head chain; ``rest`` (bone -> armature-space 3x3
+    rest frame) defaults to the skeleton's (a generated Rigify rig's controls have their own)."""
     out = {}
     for bone, share in chain or chain_of(skeleton, generated_rigify=False):
-        frame = skeleton.rest[skeleton.index(bone), :3, :3]
-        coefficients = share * frame.T @ CONTROL_AXES.T          # (3 local axes) x (pitch, yaw, roll)
+        frame = rest[bone] if rest is not None else skeleton.rest[skeleton.index(bone), :3, :3]
+        coefficients = share * np.asarray(frame).T @ CONTROL_AXES.T          # (3 local axes) x (pitch, yaw, roll)
         out[bone] = [[(control, float(coefficients[axis, k])) for k, control in enumerate(HEAD_CONTROLS)
                       if abs(coefficients[axis, k]) > 1e-9] for axis in range(3)]
     return out

@@ -27,6 +27,7 @@ MAX_INFLUENCES = 4                  # glTF's one joint set; FBX and Blender take
 HEAD_ORGAN_BONES = {"game_engine": "head", "default": "head", "rigify": "DEF-spine.006", "mixamo": "mixamorig:Head"}
 SAFE_THETA = 1e-5
 MASK_PREFIX = "mhmask-"             # MPFB2 keeps modifier masks in weight files: not bones
+DEF_PREFIX = "DEF-"                 # a generated Rigify rig's deforming bones
 
 
 def axis_angle_matrix(axis: np.ndarray, angle: float) -> np.ndarray:
@@ -158,7 +159,7 @@ def build_skeleton(name: str, mesh: CharacterMesh, base_vertices: np.ndarray | N
     weights = {}
     if name in mpfb2.weight_names():
         # a Rigify meta-rig's weights are for the bones generation makes: DEF-<meta bone> and its extra bones
-        deforming = set(names) | {f"DEF-{n}" for n in names} | set(spec.meta.get("extra_bones", []))
+        deforming = set(names) | {DEF_PREFIX + n for n in names} | set(spec.meta.get("extra_bones", []))
         weights = _character_weights(name, mesh, deforming, max_influences)
     return CharacterSkeleton(name, names, parents, heads, tails, rolls, np.array([b.use_connect for b in spec.bones]),
                              rest, weights, {b.name: {"rigify": b.rigify, **b.extra} for b in spec.bones}, spec.meta)
@@ -172,6 +173,8 @@ def _character_weights(name: str, mesh: CharacterMesh, names: set[str], max_infl
     for bone, (ids, values) in mpfb2.read_weights(name).items():
         if bone.startswith(MASK_PREFIX):
             continue
+        if name == "rigify" and not bone.startswith(DEF_PREFIX):
+            bone = DEF_PREFIX + bone          # Rigify weights name meta-rig bones; the generated rig deforms DEF-
         if bone not in names:
             raise UserError(f"the {name} weights name the bone {bone!r}, which its skeleton lacks; the rig and "
                             "weight files do not belong together")

@@ -80,6 +80,14 @@ def create_character_objects(context, rig, name: str = "FH Character"):
     collection = bpy.data.collections.new(name)
     context.scene.collection.children.link(collection)
     arm = _armature(context, character.skeleton, name, collection)
+    chain = None
+    if character.skeleton.name == "rigify":          # the meta-rig, generated into a Rigify control rig
+        from ...faces_hands_addon.character.head import HEAD_CHAINS
+        from .rigify import META_ROLE, generate_rigify
+        arm[PART_ROLE] = META_ROLE
+        arm = generate_rigify(context, arm, character.skeleton, name)
+        arm[PART_ROLE] = ARMATURE_ROLE
+        chain = HEAD_CHAINS["rigify"]
     body = bpy.data.objects.new(name, body_mesh(f"{name} Body", character.mesh))
     collection.objects.link(body)
     body.parent = arm
@@ -92,14 +100,18 @@ def create_character_objects(context, rig, name: str = "FH Character"):
     subdivision.levels, subdivision.render_levels = 0, 1       # renders smooth, the viewport stays fast
     controls.ensure_controls(body, rig.control_specs())
     store_rig(body, rig)
-    head_drivers(body, arm, rig)
+    head_drivers(body, arm, rig, chain)
     return arm, body
 
 
-def head_drivers(body, arm, rig) -> None:
-    """The neck and head bones' Euler angles driven by the mixed head controls (``character.head``)."""
+def head_drivers(body, arm, rig, chain=None) -> None:
+    """The neck and head bones' Euler angles driven by the mixed head controls (``character.head``); with
+    ``chain``, that chain's bones of ``arm`` (a generated Rigify rig's controls) with their own rest frames."""
+    from ...faces_hands_addon.character.head import bone_terms
     specs = rig.control_specs()
-    for bone, axes in rig.terms.items():
+    terms = rig.terms if chain is None else bone_terms(rig.character.skeleton, chain, {
+        bone: np.array(arm.data.bones[bone].matrix_local)[:3, :3] for bone, _ in chain})
+    for bone, axes in terms.items():
         pose_bone = arm.pose.bones[bone]
         pose_bone.rotation_mode = "XYZ"
         for index, terms in enumerate(axes):
