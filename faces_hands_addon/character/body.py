@@ -44,6 +44,7 @@ class CharacterMesh:
     base_index: np.ndarray        # (n,) int64: each vertex's id in the MPFB2 base mesh
     parts: dict = field(default_factory=dict)   # role -> vertex ids (:data:`PARTS`)
     offset: np.ndarray = field(default_factory=lambda: np.zeros(3))  # added after :func:`mpfb2.to_fh`
+    brows: np.ndarray | None = None             # (n,) eyebrow paint in [0, 1] (``character.fitting.brow_paint``)
 
     @property
     def triangles(self) -> np.ndarray:

@@ -16,7 +16,8 @@ from ..core.errors import UserError
 from .body import HEAD_FRACTION
 from .model import Character, build_character, eye_frames
 
-__all__ = ["head_submesh", "fit_face", "placed_eyes", "build_character_rig", "FACE_SEED"]
+__all__ = ["head_submesh", "fit_face", "placed_eyes", "brow_paint", "build_character_rig", "rig_stages",
+           "FACE_SEED"]
 
 FACE_SEED = 0
 
@@ -56,6 +57,24 @@ def placed_eyes(character: Character, face) -> np.ndarray:
     return vertices
 
 
+def brow_paint(vertices: np.ndarray, face, ids: np.ndarray) -> np.ndarray:
+    """Per vertex of the character in [0, 1]: eyebrow hair painted on the skin (the base mesh has no brow
+    geometry; MPFB2 adds brows as separate proxies). The band under each upper brow contour of the fitted
+    face's landmarks, as the default head paints its brows (:func:`..face.appearance.brow_weights`), so the
+    brows move with the skin in every shape."""
+    from ..assets import face_contours
+    from ..face.appearance import brow_weights
+    contours = face_contours().lines
+    head = vertices[ids]
+    out = np.zeros(len(vertices))
+    for side in "LR":
+        line = face.landmarks[contours[f"eyebrow_{side}_upper"]]
+        points = np.concatenate([head, line])
+        weights = brow_weights(points, len(head) + np.arange(len(line)), np.ones(len(points)))[:len(head)]
+        out[ids] = np.maximum(out[ids], weights)
+    return out
+
+
 def rig_stages(skeleton: str = "game_engine", hands: bool = True):
     """Build the character's rig in fixed stages (Rigify-like): a generator yielding ``(fraction, message)``
     after each stage and, last, the :class:`.rig.CharacterRig` (module docstring)."""
@@ -67,6 +86,7 @@ def rig_stages(skeleton: str = "game_engine", hands: bool = True):
     yield 0.05, "fitting the face rig to the head"
     face, ids = fit_face(character)
     character.mesh.vertices = placed_eyes(character, face)
+    character.mesh.brows = brow_paint(character.mesh.vertices, face, ids)
     hand_rigs = {}
     if hands:
         template = reference_template()

@@ -20,7 +20,7 @@ from ..behavior.events import HEAD_LIMIT_RAD
 from ..core.controls import ControlSpec
 from .skeleton import CharacterSkeleton
 
-__all__ = ["HEAD_CONTROLS", "HEAD_CHAINS", "TRACK_CONTROLS", "head_specs", "bone_terms", "bone_eulers",
+__all__ = ["HEAD_CONTROLS", "HEAD_CHAINS", "TRACK_CONTROLS", "head_specs", "chain_terms", "bone_terms", "bone_eulers",
            "euler_matrix", "chain_of"]
 
 HEAD_CONTROLS = ("head_pitch", "head_yaw", "head_roll")
@@ -34,6 +34,8 @@ HEAD_CHAINS = {
     "default": (("neck01", 0.15), ("neck02", 0.15), ("neck03", 0.15), ("head", 0.55)),
     "rigify": (("neck", 0.4), ("head", 1.0)),
     "rigify_meta": (("spine.004", 0.2), ("spine.005", 0.2), ("spine.006", 0.6)),
+    "mixamo": (("mixamorig:Neck", 0.4), ("mixamorig:Head", 0.6)),
+    "vrm": (("neck", 0.4), ("head", 0.6)),
 }
 #: world rotation vector (x, y, z) per unit of (pitch, yaw, roll): facing -Y, chin up is a negative turn
 #: about X, a turn to the left (+X) positive about Z, the top tilting to +X positive about Y
@@ -56,17 +58,24 @@ def chain_of(skeleton: CharacterSkeleton, generated_rigify: bool = True) -> tupl
     return HEAD_CHAINS[key]
 
 
-def bone_terms(skeleton: CharacterSkeleton, chain=None, rest: dict | None = None) -> dict[str, list[list[tuple[str, float]]]]:
+def chain_terms(chain, frames) -> dict[str, list[list[tuple[str, float]]]]:
     """bone -> for each Euler angle (X, Y, Z) the (control, weight) terms of its weighted sum (module
-    docstring). ``chain`` defaults to the skeleton's own head chain; ``rest`` (bone -> armature-space 3x3
-    rest frame) defaults to the skeleton's (a generated Rigify rig's controls have their own)."""
+    docstring) for the bones of ``chain`` whose rest frames (3x3, the space the head controls turn in) are
+    ``frames[bone]``."""
     out = {}
-    for bone, share in chain or chain_of(skeleton, generated_rigify=False):
-        frame = rest[bone] if rest is not None else skeleton.rest[skeleton.index(bone), :3, :3]
-        coefficients = share * np.asarray(frame).T @ CONTROL_AXES.T          # (3 local axes) x (pitch, yaw, roll)
+    for bone, share in chain:
+        coefficients = share * np.asarray(frames[bone]).T @ CONTROL_AXES.T      # (3 local axes) x (pitch, yaw, roll)
         out[bone] = [[(control, float(coefficients[axis, k])) for k, control in enumerate(HEAD_CONTROLS)
                       if abs(coefficients[axis, k]) > 1e-9] for axis in range(3)]
     return out
+
+
+def bone_terms(skeleton: CharacterSkeleton, chain=None, rest: dict | None = None) -> dict:
+    """:func:`chain_terms` of the skeleton's head chain (or ``chain``) with the skeleton's rest frames (or
+    ``rest``: bone -> 3x3, e.g. a generated Rigify rig's controls)."""
+    chain = chain or chain_of(skeleton, generated_rigify=False)
+    frames = rest if rest is not None else {bone: skeleton.rest[skeleton.index(bone), :3, :3] for bone, _ in chain}
+    return chain_terms(chain, frames)
 
 
 def bone_eulers(values: dict[str, float], terms: dict) -> dict[str, np.ndarray]:

@@ -82,6 +82,7 @@ class CharacterRig:
                 specs[name] = ControlSpec(name, spec.minimum, spec.maximum, spec.default, f"hand_{side}", spec.kind,
                                           f"{SIDES[side]} hand: {spec.description}", spec.units)
         self.specs = specs
+        self._own = {name: spec for name, spec in specs.items() if name not in self._face_specs}
         self._organs = self._organ_table()
         self._hand_idle = {side: True for side in self._hands}
         self._hand_last: dict[str, dict] = {}
@@ -113,10 +114,20 @@ class CharacterRig:
         transforms = {BONE_PREFIX + bone: np.eye(4) for bone in self._turned_bones()}
         return Pose({"skin": self.rest_positions}, transforms)
 
+    def _mixed(self, layer_values: LayerValues) -> dict:
+        """The mixed values (4.3.5) of the head's and the hands' controls (the face mixes its own); unknown
+        layers and control names are refused as :func:`..anim.layers.mix` refuses them."""
+        for values in layer_values.values():
+            unknown = [name for name in values if name not in self.specs]
+            if unknown:
+                mix({"ctrl": {unknown[0]: 0.0}}, self.specs)
+        return mix({layer: {k: v for k, v in values.items() if k in self._own}
+                    for layer, values in layer_values.items()}, self._own)
+
     def step(self, layer_values: LayerValues, dt: float) -> Pose:
         """Mix the layers (4.3.5), advance the face and the hands one frame of ``dt`` seconds, return the pose.
         A hand whose muscles are relaxed and whose bones have stopped turning is not simulated."""
-        values = mix(layer_values, self.specs)            # refuses unknown names and layers
+        values = self._mixed(layer_values)
         face_pose = self.face.step(_subset(layer_values, self._face_specs), dt)
         hand_turns = {}
         for side in self._hands:
@@ -133,7 +144,7 @@ class CharacterRig:
     def settled(self, layer_values: LayerValues, max_time: float = 1.5, dt: float = 1 / 24) -> Pose:
         """The static pose from rest: the face and each hand settle (a hand whose muscles are all relaxed
         stays at rest without simulating)."""
-        values = mix(layer_values, self.specs)
+        values = self._mixed(layer_values)
         face_pose = self.face.settled(_subset(layer_values, self._face_specs), max_time, dt)
         hand_turns = {}
         for side in self._hands:

@@ -21,13 +21,15 @@ from ...faces_hands_addon.character.model import material_settings
 from ...faces_hands_addon.core.errors import UserError
 from ..common.materials import enable_nodes
 
-__all__ = ["character_materials", "build_node_tree"]
+__all__ = ["character_materials", "build_node_tree", "BROW_ATTRIBUTE"]
 
 PREFIX = "FH Character"
 NODE_ATTRIBUTES = ("operation", "use_clamp", "blend_type", "data_type", "interpolation", "distribution",
                    "subsurface_method", "feature", "voronoi_dimensions", "noise_dimensions")
-SKIN_TONE = (0.80, 0.57, 0.46)            # linear RGB, a mid skin tone
-LIP_TONE = (0.62, 0.30, 0.29)
+SKIN_TONE = (0.62, 0.39, 0.29)            # linear RGB, a light-medium skin tone
+LIP_TONE = (0.45, 0.19, 0.18)
+BROW_TONE = (0.035, 0.022, 0.015)         # dark brown brow hair (the default head's, ``face.appearance``)
+BROW_ATTRIBUTE = "FH Brows"               # per-vertex brow paint (``character.fitting.brow_paint``)
 NAIL_TONE = (0.85, 0.66, 0.60)
 REGION_MASKS = {"lips": "mpfb_lips.jpg", "fingernails": "mpfb_fingernails.jpg", "toenails": "mpfb_toenails.jpg"}
 
@@ -188,7 +190,14 @@ def _skin(settings: dict):
         else:
             tree.links.new(roughness_out, mix_rough.inputs[2])
         roughness_out = mix_rough.outputs["Value"]
-    tree.links.new(colour_out, colour)
+    brows = tree.nodes.new("ShaderNodeAttribute")
+    brows.attribute_name, brows.location = BROW_ATTRIBUTE, (-500, 600)
+    mix_brows = tree.nodes.new("ShaderNodeMixRGB")
+    mix_brows.location = (-250, 450)
+    tree.links.new(brows.outputs["Fac"], mix_brows.inputs["Fac"])
+    tree.links.new(colour_out, mix_brows.inputs["Color1"])
+    mix_brows.inputs["Color2"].default_value = (*BROW_TONE, 1.0)
+    tree.links.new(mix_brows.outputs["Color"], colour)
     tree.links.new(roughness_out, roughness)
     _pores(tree, shader, body)
     return material

@@ -94,6 +94,9 @@ def create_character_objects(context, rig, name: str = "FH Character"):
     for material in materials.character_materials():
         body.data.materials.append(material)
     _weights(body, character.skeleton)
+    if character.mesh.brows is not None:
+        paint = body.data.attributes.new(materials.BROW_ATTRIBUTE, "FLOAT", "POINT")
+        paint.data.foreach_set("value", np.ascontiguousarray(character.mesh.brows, dtype=np.float32))
     modifier = body.modifiers.new("Armature", "ARMATURE")
     modifier.object = arm
     subdivision = body.modifiers.new(SUBDIVISION, "SUBSURF")
@@ -109,6 +112,7 @@ def head_drivers(body, arm, rig, chain=None) -> None:
     ``chain``, that chain's bones of ``arm`` (a generated Rigify rig's controls) with their own rest frames."""
     from ...faces_hands_addon.character.head import bone_terms
     specs = rig.control_specs()
+    drivers = []
     terms = rig.terms if chain is None else bone_terms(rig.character.skeleton, chain, {
         bone: np.array(arm.data.bones[bone].matrix_local)[:3, :3] for bone, _ in chain})
     for bone, axes in terms.items():
@@ -119,7 +123,10 @@ def head_drivers(body, arm, rig, chain=None) -> None:
                 continue
             used = [control for control, _ in terms]
             expression = weighted_driver(terms, specs, -WIDE, WIDE, controls.available_layers(body, used))
-            controls.add_mixed_driver(pose_bone, "rotation_euler", body, expression, index)
+            drivers.append(controls.add_mixed_driver(pose_bone, "rotation_euler", body, expression, index))
+    bpy.context.view_layer.update()
+    for driver in drivers:                # evaluated while the rig was being set up; compiled again now
+        driver.expression = driver.expression
 
 
 def armature_of(body):

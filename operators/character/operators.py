@@ -6,6 +6,7 @@ import bpy
 
 from ..common.jobs import Job
 from ..common.modal import JobOperator
+from .fit_user import FitCharacterJob
 from .jobs import BuildCharacterJob
 
 SKELETON_ITEMS = [
@@ -34,4 +35,15 @@ class FH_OT_add_character(JobOperator, bpy.types.Operator):
         return BuildCharacterJob(self.name, self.skeleton, self.hands)
 
 
-CLASSES = [FH_OT_add_character]
+class FH_OT_fit_character(JobOperator, bpy.types.Operator):
+    """Fit the face rig to your own character: its body mesh skinned to an armature with neck and head bones (MPFB2, Rigify, Mixamo or VRM names); its shape keys, modifiers and armature are kept"""
+
+    bl_idname = "faces_hands.fit_character"
+    bl_label = "Fit Face Rig to Character"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def make_job(self, context) -> Job:
+        return FitCharacterJob(context, context.active_object)
+
+
+CLASSES = [FH_OT_add_character, FH_OT_fit_character]

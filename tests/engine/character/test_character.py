@@ -178,3 +178,44 @@ def test_the_rig_saves_and_loads_the_same(rig, tmp_path):
     assert np.array_equal(a.transforms["bone:head"], b.transforms["bone:head"])
     with pytest.raises(UserError, match="unknown control"):
         rig.step({"ctrl": {"jaw_opn": 1.0}}, 1 / 30)
+
+
+def _input(**changes):
+    from faces_hands_addon.character.user import CharacterInput
+    n = 1000
+    weights = np.zeros(n)
+    weights[:400] = 1.0
+    data = CharacterInput(meshes=["Body"], mesh="Body", armature="Armature", bones=["pelvis", "neck_01", "head"],
+                          groups=["pelvis", "head"], head_weights={"head": weights}, vertex_count=n)
+    for key, value in changes.items():
+        setattr(data, key, value)
+    return data
+
+
+@pytest.mark.parametrize("changes, message", [
+    ({"mesh": None}, "select the character's body mesh"),
+    ({"armature": None}, "not deformed by an armature"),
+    ({"meshes": ["Body", "Eyes", "Teeth"]}, "the body is 3 meshes skinned to 'Armature'"),
+    ({"bones": ["pelvis", "Head"]}, "no neck and head bones"),
+    ({"groups": ["pelvis"]}, "no vertex group 'head'"),
+    ({"head_weights": {"head": np.zeros(1000)}}, "only 0 vertices"),
+])
+def test_a_users_character_is_refused_with_what_is_missing(changes, message):
+    from faces_hands_addon.character.user import check_character
+    with pytest.raises(UserError, match=message):
+        check_character(_input(**changes))
+    chain, ids = check_character(_input())
+    assert [b for b, _ in chain] == ["neck_01", "head"] and len(ids) == 400
+    chain, _ = check_character(_input(bones=["mixamorig:Neck", "mixamorig:Head"], groups=["mixamorig:Head"],
+                                      head_weights={"mixamorig:Head": np.ones(1000)}))
+    assert chain[-1][0] == "mixamorig:Head"
+
+
+def test_mismatched_rig_and_weight_files_are_refused(monkeypatch):
+    monkeypatch.setitem(mpfb2.RIGS, "mixamo", ("standard/rig.mixamo.json", "standard/weights.game_engine.json"))
+    mesh = body.character_mesh()
+    try:
+        with pytest.raises(UserError, match="do not belong together"):
+            skeleton.build_skeleton("mixamo", mesh)
+    finally:
+        mpfb2.read_weights.cache_clear()

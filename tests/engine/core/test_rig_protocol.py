@@ -75,9 +75,10 @@ def test_damaged_archives_are_refused(rig, tmp_path):
 
 def _rig_classes():
     from faces_hands_addon.character.rig import CharacterRig
+    from faces_hands_addon.character.user import FittedCharacterRig
     from faces_hands_addon.face.fitted import FittedFaceRig
     from faces_hands_addon.hand.rig import HandRig
-    return [FaceRig, FittedFaceRig, HandRig, CharacterRig]
+    return [FaceRig, FittedFaceRig, HandRig, CharacterRig, FittedCharacterRig]
 
 
 @pytest.mark.parametrize("cls", _rig_classes(), ids=lambda c: c.__name__)
