@@ -67,11 +67,8 @@ class Demo:
             sheet.render_sheet(bpy.context, rig_obj, sheet.expression_cells(get_rig(rig_obj), include), tmp,
                                columns=10, progress=_scaled(progress, 0.05, 0.5))
         outputs.append(sheet_path)
-        print(face.bake(bpy.context, rig_obj, "expressions", "all", _scaled(progress, 0.5, 0.7)))
-        outputs.append(face.export(bpy.context, rig_obj, str(out_dir / "face_expressions.glb")))
-        blend = out_dir / "face_rig.blend"
-        save_blend(blend)
-        outputs.append(blend)
+        outputs += _baked(rig_obj, out_dir / "face_expressions.glb", out_dir / "face_rig.blend",
+                          _scaled(progress, 0.5, 0.7))
         outputs.append(_morph_sheet(out_dir, _scaled(progress, 0.7, 0.73)))
         weights = checked_spec({"text": SENTENCE, "out": str(out_dir / "speech.glb"), "style": "nodder",
                                 "sheet": str(out_dir / "speech_contact_sheet.png")}, FPS)
@@ -105,12 +102,16 @@ def _character(out_dir: Path, quick: bool, progress) -> list[Path]:
             sheet.render_sheet(bpy.context, body, cells, tmp, columns=12, view=view,
                                progress=_scaled(progress, *span))
         outputs.append(path)
-    print(face.bake(bpy.context, body, "expressions", "all", _scaled(progress, 0.8, 0.95)))
-    outputs.append(face.export(bpy.context, body, str(out_dir / "character_expressions.glb")))
-    blend = out_dir / "character.blend"
+    return outputs + _baked(body, out_dir / "character_expressions.glb", out_dir / "character.blend",
+                            _scaled(progress, 0.8, 0.95))
+
+
+def _baked(rig_obj, glb: Path, blend: Path, progress) -> list[Path]:
+    """All expressions baked into ``rig_obj``'s shape keys, exported as ``glb``; the file saved as ``blend``."""
+    print(face.bake(bpy.context, rig_obj, "expressions", "all", progress))
+    exported = face.export(bpy.context, rig_obj, str(glb))
     save_blend(blend)
-    outputs.append(blend)
-    return outputs
+    return [exported, blend]
 
 
 def _morph_sheet(out_dir: Path, progress) -> Path:
