@@ -13,7 +13,7 @@ ADD_ITEMS = (("faces_hands.add_character", "Character", "ARMATURE_DATA"),
              ("faces_hands.add_default_assets", "Default Assets (Skull, Jaw, Face)", "ASSET_MANAGER"))
 
 OBJECT_SECTIONS = (
-    ("Character", ("faces_hands.add_character", "faces_hands.fit_character")),
+    ("Character", ("faces_hands.add_character", "faces_hands.fit_character", "faces_hands.retarget_character")),
     ("Face", ("faces_hands.locate_landmarks", "faces_hands.fit_face_rig", "faces_hands.live_simulation",
               "faces_hands.reset_controls", "faces_hands.bake_face", "faces_hands.export_face")),
     ("Speech", ("faces_hands.animate_speech", "faces_hands.speak_text", "faces_hands.lipsync_audio",

@@ -16,7 +16,8 @@ from ..common import controls
 from ..common.rig_store import PART_ROLE, store_rig
 from . import materials
 
-__all__ = ["ARMATURE_ROLE", "create_character_objects", "armature_of", "body_mesh", "head_drivers"]
+__all__ = ["ARMATURE_ROLE", "create_character_objects", "create_armature", "armature_of", "body_mesh",
+           "head_drivers"]
 
 ARMATURE_ROLE = "character_armature"
 SUBDIVISION = "Subdivision"
@@ -41,7 +42,8 @@ def body_mesh(name: str, mesh) -> bpy.types.Mesh:
     return data
 
 
-def _armature(context, skeleton, name: str, collection):
+def create_armature(context, skeleton, name: str, collection):
+    """An armature object of the engine's :class:`CharacterSkeleton` (edit bones: head, tail, roll, parent)."""
     data = bpy.data.armatures.new(f"{name} Armature")
     arm = bpy.data.objects.new(f"{name} Armature", data)
     collection.objects.link(arm)
@@ -79,7 +81,7 @@ def create_character_objects(context, rig, name: str = "FH Character"):
     character = rig.character
     collection = bpy.data.collections.new(name)
     context.scene.collection.children.link(collection)
-    arm = _armature(context, character.skeleton, name, collection)
+    arm = create_armature(context, character.skeleton, name, collection)
     chain = None
     if character.skeleton.name == "rigify":          # the meta-rig, generated into a Rigify control rig
         from ...faces_hands_addon.character.head import HEAD_CHAINS

@@ -4,8 +4,11 @@ from __future__ import annotations
 
 import bpy
 
+from ...faces_hands_addon.core.errors import UserError
+from ..common.hardened import HardenedOperator
 from ..common.jobs import Job
 from ..common.modal import JobOperator
+from ..common.rig_store import rig_of
 from .fit_user import FitCharacterJob
 from .jobs import BuildCharacterJob
 
@@ -46,4 +49,26 @@ class FH_OT_fit_character(JobOperator, bpy.types.Operator):
         return FitCharacterJob(context, context.active_object)
 
 
-CLASSES = [FH_OT_add_character, FH_OT_fit_character]
+class FH_OT_retarget_character(HardenedOperator, bpy.types.Operator):
+    """Key the character's armature animation (head on the neck, fingers) onto the other selected armature over the scene's frame range, through the bone map (MPFB2, Rigify, Mixamo, VRM names)"""
+
+    bl_idname = "faces_hands.retarget_character"
+    bl_label = "Retarget Character Animation"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def run(self, context):
+        from .objects import armature_of
+        from .retarget import retarget_animation
+        body = rig_of(context.active_object)
+        source = armature_of(body) if body is not None else None
+        targets = [o for o in context.selected_objects if o.type == "ARMATURE" and o != source]
+        if source is None or len(targets) != 1:
+            raise UserError("select the character and one other armature (the one to key)")
+        scene = context.scene
+        count = retarget_animation(context, source, targets[0], range(scene.frame_start, scene.frame_end + 1))
+        self.report({"INFO"}, f"Keyed {count} bones of '{targets[0].name}' over frames {scene.frame_start}-"
+                              f"{scene.frame_end}")
+        return {"FINISHED"}
+
+
+CLASSES = [FH_OT_add_character, FH_OT_fit_character, FH_OT_retarget_character]

@@ -139,3 +139,26 @@ def test_fbx_reimports_with_bones_weights_and_keys(character, tmp_path):
     assert {"jawOpen", "eyeBlinkLeft"} <= set(mesh.data.shape_keys.key_blocks.keys())
     for obj in new:
         bpy.data.objects.remove(obj)
+
+
+def test_head_turn_retargets_onto_a_mixamo_skeleton(character):
+    """The bone map carries the head's turn onto an armature named like Mixamo's, as the same world turn."""
+    bpy, body = character
+    from faces_hands_addon.character.body import character_mesh
+    from faces_hands_addon.character.skeleton import build_skeleton
+    retarget = addon_module("operators.character.retarget")
+    objects = addon_module("operators.character.objects")
+    target = objects.create_armature(bpy.context, build_skeleton("mixamo", character_mesh()), "Mixamo",
+                                     bpy.context.scene.collection)
+    scene = bpy.context.scene
+    body["fh.behavior.head_yaw"] = 0.3
+    body.keyframe_insert('["fh.behavior.head_yaw"]', frame=5)
+    keyed = retarget.retarget_animation(bpy.context, body.parent, target, [5])
+    assert keyed >= 20                                              # spine, neck, head, arms, fingers
+    scene.frame_set(5)
+    turned = np.array(target.pose.bones["mixamorig:Head"].matrix)[:3, :3] @ \
+        np.array(target.data.bones["mixamorig:Head"].matrix_local)[:3, :3].T
+    source = np.array(body.parent.pose.bones["head"].matrix)[:3, :3] @ \
+        np.array(body.parent.data.bones["head"].matrix_local)[:3, :3].T
+    np.testing.assert_allclose(turned, source, atol=1e-4)
+    assert np.degrees(np.arccos((np.trace(turned) - 1) / 2)) > 10
