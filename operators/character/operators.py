@@ -11,6 +11,8 @@ from ..common.modal import JobOperator
 from ..common.rig_store import rig_of
 from .fit_user import FitCharacterJob
 from .jobs import BuildCharacterJob
+from .objects import armature_of
+from .retarget import retarget_animation
 
 SKELETON_ITEMS = [
     ("game_engine", "Game Engine", "MPFB2's game-engine skeleton (53 bones, Unreal-style names): what engines and "
@@ -57,8 +59,6 @@ class FH_OT_retarget_character(HardenedOperator, bpy.types.Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     def run(self, context):
-        from .objects import armature_of
-        from .retarget import retarget_animation
         body = rig_of(context.active_object)
         source = armature_of(body) if body is not None else None
         targets = [o for o in context.selected_objects if o.type == "ARMATURE" and o != source]
