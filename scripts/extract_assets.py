@@ -79,7 +79,7 @@ MPFB2_FILES = (
     "node_trees/procedural_eyes.json", "settings/eye_settings.default.json",
     "settings/enhanced_settings.default.json", "targets/target.json",
     "textures/mpfb_lips.jpg", "textures/mpfb_eyelids.jpg", "textures/mpfb_ears.jpg",
-    "textures/mpfb_fingernails.jpg", "textures/mpfb_toenails.jpg",
+    "textures/mpfb_fingernails.jpg", "textures/mpfb_toenails.jpg", "textures/mpfb_inside-mouth.jpg",
 )
 # the modelling targets of the head (the morphable heads reshape the character's head with them)
 MPFB2_TARGET_FOLDERS = ("head", "forehead", "eyebrows", "eyes", "nose", "mouth", "ears", "chin", "cheek", "neck")

@@ -2,7 +2,8 @@
 """The character's materials, after MPFB2's: the procedural eye built from MPFB2's own node-tree JSON
 (``assets/mpfb2/node_trees/procedural_eyes.json``, with ``eye_settings.default.json``), a procedural skin with
 MPFB2's default skin settings per region (``enhanced_settings.default.json``: body, lips, nails; the regions
-come from MPFB2's UV masks ``textures/mpfb_*.jpg``, packed into the file), teeth and tongue.
+come from MPFB2's UV masks ``textures/mpfb_*.jpg``, packed into the file; the mouth's lining darkened by its
+mask), painted eyebrows, teeth and tongue.
 
 Node-tree JSON (MPFB2's format): ``nodes`` (name -> ``type`` = node bl_idname, ``label``, ``location``,
 ``values`` = input defaults by socket name, optional ``value`` of a Value node, ``operation``, ``use_clamp``,
@@ -31,7 +32,10 @@ LIP_TONE = (0.45, 0.19, 0.18)
 BROW_TONE = (0.035, 0.022, 0.015)         # dark brown brow hair (the default head's, ``face.appearance``)
 BROW_ATTRIBUTE = "FH Brows"               # per-vertex brow paint (``character.fitting.brow_paint``)
 NAIL_TONE = (0.85, 0.66, 0.60)
-REGION_MASKS = {"lips": "mpfb_lips.jpg", "fingernails": "mpfb_fingernails.jpg", "toenails": "mpfb_toenails.jpg"}
+MOUTH_TONE = (0.22, 0.055, 0.05)         # the mouth's lining: dark red, wet
+REGION_MASKS = {"lips": "mpfb_lips.jpg", "fingernails": "mpfb_fingernails.jpg", "toenails": "mpfb_toenails.jpg",
+                "inside-mouth": "mpfb_inside-mouth.jpg"}
+REGION_ROUGHNESS = {"inside-mouth": 0.25}  # MPFB2's settings have no mouth region
 
 
 def _socket(sockets, key):
@@ -168,7 +172,7 @@ def _skin(settings: dict):
     tree = material.node_tree
     colour, roughness = shader.inputs["Base Color"], shader.inputs["Roughness"]
     colour_out = roughness_out = None
-    tones = {"lips": LIP_TONE, "fingernails": NAIL_TONE, "toenails": NAIL_TONE}
+    tones = {"lips": LIP_TONE, "fingernails": NAIL_TONE, "toenails": NAIL_TONE, "inside-mouth": MOUTH_TONE}
     for k, (region, file_name) in enumerate(REGION_MASKS.items()):
         mask = _mask(tree, file_name, (-900, 300 - 300 * k))
         mix_colour = tree.nodes.new("ShaderNodeMixRGB")
@@ -182,7 +186,8 @@ def _skin(settings: dict):
         colour_out = mix_colour.outputs["Color"]
         mix_rough = tree.nodes.new("ShaderNodeMath")
         mix_rough.operation, mix_rough.location = "MULTIPLY_ADD", (-300, 200 - 300 * k)
-        delta = float(settings.get(region, {}).get("Roughness", 0.45)) - float(body.get("Roughness", 0.45))
+        region_roughness = settings.get(region, {}).get("Roughness", REGION_ROUGHNESS.get(region, 0.45))
+        delta = float(region_roughness) - float(body.get("Roughness", 0.45))
         tree.links.new(mask.outputs["Color"], mix_rough.inputs[0])
         mix_rough.inputs[1].default_value = delta
         if roughness_out is None:
