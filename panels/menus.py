@@ -6,12 +6,14 @@ from __future__ import annotations
 
 import bpy
 
-ADD_ITEMS = (("faces_hands.build_face_rig", "Face Rig (Default Head)", "USER"),
+ADD_ITEMS = (("faces_hands.add_character", "Character", "ARMATURE_DATA"),
+             ("faces_hands.build_face_rig", "Face Rig (Default Head)", "USER"),
              ("faces_hands.morph_new_face", "Morphable Face", "SHAPEKEY_DATA"),
              ("faces_hands.build_hand_rig", "Hand Rig", "VIEW_PAN"),
              ("faces_hands.add_default_assets", "Default Assets (Skull, Jaw, Face)", "ASSET_MANAGER"))
 
 OBJECT_SECTIONS = (
+    ("Character", ("faces_hands.add_character", "faces_hands.fit_character", "faces_hands.retarget_character")),
     ("Face", ("faces_hands.locate_landmarks", "faces_hands.fit_face_rig", "faces_hands.live_simulation",
               "faces_hands.reset_controls", "faces_hands.bake_face", "faces_hands.export_face")),
     ("Speech", ("faces_hands.animate_speech", "faces_hands.speak_text", "faces_hands.lipsync_audio",

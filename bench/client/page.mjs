@@ -60,7 +60,7 @@ window.fhSample = (times, vertexIndices, withInfluences = true) => {
     if (t < now) throw new Error('sample times must increase');
     mixer.update(t - now);
     now = t;
-    skin.updateMatrixWorld(true);
+    state.scene.updateMatrixWorld(true);   // bones too: a skinned mesh's getVertexPosition reads their matrices
     mixerTimes.push(state.action.time);
     if (withInfluences) influences.push(Array.from(skin.morphTargetInfluences));
     positions.push(vertexIndices.map((i) => skin.localToWorld(skin.getVertexPosition(i, v)).toArray()));

@@ -33,7 +33,7 @@ from .errors import UserError
 
 __all__ = ["Pose", "Rig", "register_rig_kind", "rig_kinds", "save_rig", "load_rig", "rig_format",
            "rig_identity", "write_rig_archive", "read_rig_archive", "load_rig_bytes", "MAX_RIG_BYTES",
-           "PROTOCOL_METHODS"]
+           "PROTOCOL_METHODS", "BONE_ROLE"]
 
 #: refuse stored rig data that unpacks to more than this (a corrupt or hostile file)
 MAX_RIG_BYTES = 4_000_000_000
@@ -41,11 +41,16 @@ MAX_RIG_BYTES = 4_000_000_000
 LayerValues = Mapping[str, Mapping[str, float]]
 
 
+#: Pose.transforms roles naming an armature bone: ``"bone:<name>"`` -> that pose bone's ``matrix_basis``
+BONE_ROLE = "bone:"
+
+
 @dataclass
 class Pose:
     """A rig's pose at one instant, in the rig's output coordinates (no Blender types): ``positions`` of
     the deforming parts (role -> (N, 3) float32, e.g. ``"skin"``) and ``transforms`` of the rigid parts
-    (role -> 4x4 float64, e.g. ``"jaw"``, ``"eye_L"``)."""
+    (role -> 4x4 float64, e.g. ``"jaw"``, ``"eye_L"``) and of armature bones (:data:`BONE_ROLE` + name ->
+    the pose bone's ``matrix_basis``, e.g. a character's ``"bone:head"``)."""
     positions: dict[str, np.ndarray] = field(default_factory=dict)
     transforms: dict[str, np.ndarray] = field(default_factory=dict)
 

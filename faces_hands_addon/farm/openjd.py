@@ -56,6 +56,10 @@ if cache_dir:
 '''
 
 
+#: what a bundle without a rig file builds once per task
+DEFAULT_RIGS = ("character", "mask")
+
+
 def _path_parameter(name: str, kind: str, flow: str, description: str) -> dict:
     control = {("FILE", "IN"): "CHOOSE_INPUT_FILE", ("DIRECTORY", "OUT"): "CHOOSE_DIRECTORY"}[(kind, flow)]
     return {"name": name, "type": "PATH", "objectType": kind, "dataFlow": flow, "description": description,
@@ -73,12 +77,14 @@ def _blender_action(args: list[str], timeout: int | None = None) -> dict:
 def _jobs_args(rig: bool) -> list[str]:
     args = ["-b", "-c", "faces_hands", "jobs", "{{Param.ManifestFile}}", "--out-dir", "{{Param.OutputDir}}",
             "--fps", "{{Param.Fps}}"]
-    return args + (["--rig", "{{Param.RigFile}}"] if rig else [])
+    return args + ["--rig", "{{Param.RigFile}}" if rig else "{{Param.DefaultRig}}"]
 
 
-def job_template(name: str, rows: int, chunk: int, fps: float, rig: bool = False) -> dict:
+def job_template(name: str, rows: int, chunk: int, fps: float, rig: bool = False,
+                 default_rig: str = "character") -> dict:
     """The job template for a manifest of ``rows`` rows in chunks of ``chunk`` (``rig``: the run uses a
-    rig file, a further IN parameter)."""
+    rig file, a further IN parameter; else ``default_rig``, the default character or the face-only
+    ``mask``, a STRING parameter)."""
     parameters = [
         _path_parameter("ManifestFile", "FILE", "IN", "The jobs manifest (CSV or JSON Lines); relative "
                                                       "inputs are read from its folder."),
@@ -97,7 +103,12 @@ def job_template(name: str, rows: int, chunk: int, fps: float, rig: bool = False
                         "session to session (empty: each session computes them anew, about 30 s)."},
     ]
     if rig:
-        parameters.append(_path_parameter("RigFile", "FILE", "IN", "The .blend with the face rig."))
+        parameters.append(_path_parameter("RigFile", "FILE", "IN", "The .blend with the face rig or character."))
+    else:
+        parameters.append({"name": "DefaultRig", "type": "STRING", "default": default_rig,
+                           "allowedValues": list(DEFAULT_RIGS),
+                           "description": "The rig built once per task: the default character, or the "
+                                          "face-only head (mask)."})
     environment = {
         "name": "FacesHandsExtension",
         "description": "Checks the Blender version and installs the extension zip into a Blender user "

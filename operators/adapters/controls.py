@@ -163,11 +163,12 @@ def sample_layers(obj, scene, specs: Mapping[str, ControlSpec], frames, method: 
     return LayerTable(frames, controls, values)
 
 
-def add_mixed_driver(owner, path: str, obj, expression: DriverExpression):
-    """Drive ``owner.<path>`` by ``expression`` over ``obj``'s layer properties (replacing a driver there);
-    the expression is a simple one, which Blender evaluates without Python."""
-    owner.driver_remove(path)
-    driver = owner.driver_add(path).driver
+def add_mixed_driver(owner, path: str, obj, expression: DriverExpression, index: int = -1):
+    """Drive ``owner.<path>`` (its element ``index`` of an array property) by ``expression`` over ``obj``'s
+    layer properties (replacing a driver there); the expression is a simple one, which Blender evaluates
+    without Python."""
+    owner.driver_remove(path, index)
+    driver = owner.driver_add(path, index).driver
     driver.type = "SCRIPTED"
     for name, control, layer in expression.variables:
         var = driver.variables.new()

@@ -55,9 +55,12 @@ class ExportOptions:
 
 
 def export_objects(obj, roles, selected_only: bool = False) -> list:
-    """The rig object and its parts of ``roles`` (only the selected ones with ``selected_only``)."""
-    return [obj] + [part for role, part in parts(obj).items()
-                    if role in roles and (not selected_only or part.select_get())]
+    """The rig object and its parts of ``roles`` (only the selected ones with ``selected_only``); a rig
+    object skinned to its parent armature (a character) goes with that armature, first (the file's root)."""
+    armature = obj.parent if obj.parent is not None and any(
+        m.type == "ARMATURE" and m.object == obj.parent for m in obj.modifiers) else None
+    return ([armature] if armature is not None else []) + [obj] + [
+        part for role, part in parts(obj).items() if role in roles and (not selected_only or part.select_get())]
 
 
 def exported_keys(obj) -> list[str]:
@@ -187,18 +190,20 @@ def _name_clip(path: Path, clip: str) -> None:
                      + struct.pack("<I4s", len(text), b"JSON") + text + rest)
 
 
-def _write(path: Path, clip: str, sampled: bool = True) -> None:
+def _write(path: Path, clip: str, sampled: bool = True, armature: bool = False) -> None:
     if path.suffix.lower() == ".glb":
         bpy.ops.export_scene.gltf(
             filepath=str(path), export_format="GLB", use_selection=True, export_apply=False, export_morph=True,
             export_morph_normal=False, export_animations=True, export_anim_slide_to_zero=True, export_yup=True,
             export_animation_mode="ACTIVE_ACTIONS", export_nla_strips_merged_animation_name=clip,
-            export_frame_range=True, export_optimize_animation_size=False, export_force_sampling=sampled)
+            export_frame_range=True, export_optimize_animation_size=False, export_force_sampling=sampled,
+            export_bake_animation=armature)     # a character's bones move by drivers: sampled without an action
         if not sampled:
             _name_clip(path, clip)
     else:
         bpy.ops.export_scene.fbx(
-            filepath=str(path), use_selection=True, object_types={"MESH"}, use_mesh_modifiers=False,
+            filepath=str(path), use_selection=True, object_types={"MESH", "ARMATURE"} if armature else {"MESH"},
+            use_mesh_modifiers=False,
             bake_anim=True, bake_anim_use_all_actions=False, bake_anim_use_nla_strips=False,
             add_leaf_bones=False)
         path.write_bytes(fix_creation_stamp(path.read_bytes()))   # same scene, same bytes
@@ -226,7 +231,7 @@ def export_rig(context, obj, filepath: str, roles, options: ExportOptions = Expo
         scene.frame_start, scene.frame_end = first + shift, last + shift
         with _clean_copies(context, objects, options.scale, shift) as copies, atomic_output(out) as tmp:
             _select_only(context, copies)
-            _write(tmp, clip, sampled)
+            _write(tmp, clip, sampled, objects[0].type == "ARMATURE")
     except RuntimeError as error:
         raise UserError(f"export to {out} failed: {error}") from None
     finally:

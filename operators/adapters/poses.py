@@ -1,12 +1,14 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """A rig's :class:`...faces_hands_addon.core.rig.Pose` written into Blender: the deforming parts' positions
-into a dedicated shape key (``FH Simulation``; the base mesh is never touched) and the rigid parts' 4x4
-transforms onto the part objects."""
+into a dedicated shape key (``FH Simulation``; the base mesh is never touched), the rigid parts' 4x4
+transforms onto the part objects and ``bone:<name>`` transforms onto the pose bones of the armature that
+deforms the rig object (a character)."""
 from __future__ import annotations
 
 import numpy as np
 from mathutils import Matrix
 
+from ...faces_hands_addon.core.rig import BONE_ROLE
 from .rig_store import parts, to_local
 
 __all__ = ["SIM_KEY", "SKIN", "simulation_key", "push_pose", "set_simulation_key_value"]
@@ -49,3 +51,10 @@ def push_pose(obj, pose) -> None:
     for role, part in by_role.items():
         if role in pose.transforms:
             part.matrix_basis = Matrix(np.asarray(pose.transforms[role], dtype=float).tolist())
+    bones = {role[len(BONE_ROLE):]: m for role, m in pose.transforms.items() if role.startswith(BONE_ROLE)}
+    armature = next((m.object for m in obj.modifiers if m.type == "ARMATURE" and m.object is not None), None)
+    if bones and armature is not None:
+        for name, matrix in bones.items():      # a character's bones (drivers, where a bone has them, win)
+            pose_bone = armature.pose.bones.get(name)
+            if pose_bone is not None:
+                pose_bone.matrix_basis = Matrix(np.asarray(matrix, dtype=float).tolist())

@@ -71,7 +71,12 @@ def is_rig(obj, kind: str | None = None) -> bool:
 
 
 def rig_of(obj):
-    """The rig object for ``obj`` itself or one of its parts (None if neither)."""
+    """The rig object for ``obj`` itself or one of its parts, or for the armature that deforms a rig object
+    (a character's: its body is the rig object); None if neither."""
+    if obj is not None and obj.type == "ARMATURE":
+        for child in obj.children:
+            if is_rig(child) and any(m.type == "ARMATURE" and m.object == obj for m in child.modifiers):
+                return child
     while obj is not None and not is_rig(obj):
         obj = obj.parent
     return obj

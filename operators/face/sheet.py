@@ -94,7 +94,8 @@ def render_sheet(context, obj, cells: list[Cell], out_path, cell_size=(220, 250)
     hidden_before = {o.name: o.hide_render for o in scene.objects}
     for other in scene.objects:
         other.hide_render = other not in visible
-    world = to_world(obj, rig.rest_positions)
+    focus = getattr(rig, "focus_vertices", None)        # a character: frame its head, not the whole body
+    world = to_world(obj, rig.rest_positions if focus is None else rig.rest_positions[focus])
     low, high = world.min(axis=0), world.max(axis=0)
     height = float(high[2] - low[2])
     azimuth = math.radians(VIEWS[view])
@@ -130,7 +131,7 @@ def render_sheet(context, obj, cells: list[Cell], out_path, cell_size=(220, 250)
         if pose_cell is not None:
             pose_cell(obj, {})
         rig.reset()
-        _show(obj, rig, rig.pose())
+        _show(obj, rig, rig.rest_pose())
         curve = label.data
         bpy.data.objects.remove(label)
         bpy.data.curves.remove(curve)

@@ -15,6 +15,7 @@ from ...faces_hands_addon.farm.resume import Plan, plan_rows
 from ..bases.bake import MAX_FRAMES
 from ..adapters.outputs import check_output_dir
 from . import modes
+from ..speech.services import MASK
 from .runner import run_identity
 
 __all__ = ["Jobs", "COMMANDS"]
@@ -34,8 +35,9 @@ def _arguments(parser) -> None:
     parser.add_argument("--workers", type=int, default=1,
                         help="Blender processes taking rows from one queue (default 1; one per core at most "
                              "pays off: each row uses about one core)")
-    parser.add_argument("--rig", help="a .blend with a face rig for every row (default: the default head, built "
-                                      "once per worker)")
+    parser.add_argument("--rig", help="a .blend with a face rig or character for every row; 'character' (the "
+                                      "default: the default character, built once per worker) or 'mask' (the "
+                                      "face-only head)")
     parser.add_argument("--fps", type=float, default=30.0, help="frame rate of the animations (default 30)")
     parser.add_argument("--overwrite", action="store_true",
                         help="replace outputs that exist although no jobs run wrote them (never an input)")
@@ -61,12 +63,15 @@ def checked(args) -> CheckedManifest:
         check_fps(args.fps)
     except UserError:
         raise UserError(f"--fps {args.fps} is outside 1..240") from None
-    if args.rig and (not Path(args.rig).is_file() or Path(args.rig).suffix.lower() != ".blend"):
-        raise UserError(f"--rig {args.rig}: give an existing .blend file with a face rig")
+    if args.rig == "character":
+        args.rig = None                     # the default, spelt out (an OpenJD bundle passes it so)
+    if args.rig and args.rig != MASK and (not Path(args.rig).is_file() or Path(args.rig).suffix.lower() != ".blend"):
+        raise UserError(f"--rig {args.rig}: give an existing .blend file with a face rig or character, "
+                        "'character' (the default) or 'mask' (the face-only head)")
     manifest = Path(args.manifest)
     out_dir = check_output_dir(args.out_dir or manifest.parent)
     result = check_manifest(manifest, out_dir, fps=args.fps, max_frames=MAX_FRAMES,
-                            voice_check=check_voice, rig=args.rig)
+                            voice_check=check_voice, rig=args.rig if args.rig != MASK else None)
     _refuse(manifest, result.problems)
     return result
 

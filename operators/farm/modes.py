@@ -21,6 +21,7 @@ from ...faces_hands_addon.farm.resume import Plan, file_sha256, remove_stale_sta
 from ...faces_hands_addon.farm.rows import FARM_FOLDER, REPORT_NAME, JobRow
 from ..cli.interrupts import raise_pending
 from .pool import Pool, ProgressLine, send
+from ..speech.services import MASK
 from .runner import RowRunner, extension_version, peak_rss_mb
 
 __all__ = ["serve", "run_local", "run_chunk", "merge", "write_openjd"]
@@ -80,7 +81,7 @@ def _worker_command(args, out_dir: Path) -> list[str]:
     """How to start a worker: Blender itself (``-b -c faces_hands``), or, inside Blender's Python module,
     this Python with the installed extension enabled."""
     tail = ["jobs", "--serve", "--out-dir", str(out_dir.resolve()), "--fps", repr(float(args.fps))]
-    tail += ["--rig", str(Path(args.rig).resolve())] if args.rig else []
+    tail += ["--rig", args.rig if args.rig == MASK else str(Path(args.rig).resolve())] if args.rig else []
     if bpy.app.binary_path:
         return [bpy.app.binary_path, "-b", "-c", "faces_hands", *tail]
     return [sys.executable, "-c", _BOOT, __package__.rsplit(".operators", 1)[0], *tail]
@@ -180,8 +181,9 @@ def write_openjd(args, manifest: CheckedManifest) -> int:
     """The manifest as an OpenJD job bundle in ``--openjd DIR``; prints how to run and submit it."""
     zip_path = _check_zip(args.extension_zip)
     folder = Path(args.openjd)
-    rig = Path(args.rig).resolve() if args.rig else None
-    template = job_template(manifest.path.name, len(manifest.rows), args.chunk, float(args.fps), rig is not None)
+    rig = Path(args.rig).resolve() if args.rig and args.rig != MASK else None
+    template = job_template(manifest.path.name, len(manifest.rows), args.chunk, float(args.fps), rig is not None,
+                            MASK if args.rig == MASK else "character")
     values = parameter_values(manifest.path.resolve(), manifest.out_dir.resolve(), zip_path, args.blender,
                               args.chunk, float(args.fps), rig)
     inputs = [manifest.path.resolve(), zip_path] + ([rig] if rig else []) + sorted(

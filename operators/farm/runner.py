@@ -28,8 +28,8 @@ from ...faces_hands_addon.farm.resume import (RunIdentity, commit_row, file_sha2
 from ...faces_hands_addon.farm.rows import JobRow
 from ..adapters.blendfile import open_blend
 from ..cli.interrupts import raise_pending
-from ..adapters.rig_store import find_rig, get_rig
-from ..speech.services import run_line, shared_default_rig
+from ..adapters.rig_store import get_rig, is_rig
+from ..speech.services import MASK, run_line, shared_default_rig
 
 __all__ = ["RowRunner", "extension_version", "run_identity", "peak_rss_mb"]
 
@@ -46,7 +46,8 @@ def extension_version() -> str:
 
 def run_identity(rig: str | None, fps: float) -> RunIdentity:
     """What every row's key shares (``resume.row_key``): version, engine, rig (its bytes' SHA-256), fps."""
-    return RunIdentity(extension_version(), engine_fingerprint(), file_sha256(rig) if rig else "default",
+    return RunIdentity(extension_version(), engine_fingerprint(),
+                       file_sha256(rig) if rig not in (None, MASK) else (rig or "default"),
                        float(fps))
 
 
@@ -65,8 +66,8 @@ def _quiet(fraction: float, message: str = "") -> None:  # noqa: ARG001 - the pr
 
 
 class RowRunner:
-    """Runs rows into ``out_dir``; ``rig``: a .blend with a face rig, or None for the default head (built
-    once, here)."""
+    """Runs rows into ``out_dir``; ``rig``: a .blend with a face rig or a character, None for the default
+    character or ``"mask"`` for the face-only head (either built once, here)."""
 
     def __init__(self, out_dir: Path, rig: str | None, fps: float, progress=None):
         self._blas = one_blas_thread()              # applies at once; put back by close()
@@ -76,9 +77,10 @@ class RowRunner:
         self.staging = staging_folder(self.out_dir)
         self.staging.mkdir(parents=True, exist_ok=True)
         self._tmp = tempfile.mkdtemp(prefix="fh-farm-")
-        self.rig_path = rig or shared_default_rig(self._tmp, self.fps, progress or _quiet)
+        self.rig_path = rig if rig not in (None, MASK) else shared_default_rig(self._tmp, self.fps,
+                                                                                progress or _quiet, rig)
         open_blend(self.rig_path)
-        self.engine_rig = get_rig(find_rig(bpy.data.objects, kind="face"))
+        self.engine_rig = get_rig(next(o for o in bpy.data.objects if is_rig(o, "face") or is_rig(o, "character")))
 
     def run(self, row: JobRow, key: str, inputs: dict) -> dict:
         """Bake ``row`` and commit its files; returns its wall and CPU seconds (``seconds``, ``cpu_s``: the

@@ -1,13 +1,16 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """``faces_hands demo``: the main job on the embedded default data, written under one folder.
 
-1. the default MEDUSA head: built, expressions baked (ARKit + visemes + emotions), a labelled contact
-   sheet of neutral / every muscle / jaw / ARKit / visemes, the baked head as GLB, the rig as .blend;
+0. the default character (MakeHuman's MPFB2 body, armature, the face rig fitted to its head): contact sheets
+   of the face's shapes (neutral, ARKit, visemes) on the whole head, front and three-quarter, its 74
+   expressions baked into the body's shape keys and exported as one GLB, the character as .blend;
+1. the face-only MEDUSA head (the mask): built, expressions baked (ARKit + visemes + emotions), a labelled
+   contact sheet of neutral / every muscle / jaw / ARKit / visemes, the baked head as GLB, the rig as .blend;
 2. morphable faces (thesis 3.2, 5.1): a contact sheet of the average face of the default model, +-2 on a
    few attributes, a caricature, and the Fig. 3.8 experiment (masculine, then higher eyebrows, without and
    with the masculinity constrained);
 3. the thesis' example sentence "Can you show me the way to the conference hall?" spoken with espeak-ng
-   on that head, both ways a studio ships it: engine-ready weights of the fixed target set (speech.glb) and
+   by the character, its head turning on its neck (a behaviour style), both ways a studio ships it: engine-ready weights of the fixed target set (speech.glb) and
    the exact per-frame cache for offline renders (speech_cache.glb), their sizes printed; the WAV (same
    start) and contact sheets of frames at phoneme centres; and the thesis' "Hi! ;-) Can you show me the way
    to the conference hall? :-)" with non-verbal behaviour and the emoticons' wink and smile
@@ -24,6 +27,7 @@ import bpy
 from ...faces_hands_addon.meshio import glb_document
 from ..adapters.blendfile import save_blend
 from ..adapters.outputs import atomic_output, check_output_dir, written
+from ..character import services as character
 from ..adapters.rig_store import get_rig
 from ..face import services as face, sheet
 from ..hand import services as hand
@@ -54,7 +58,8 @@ class Demo:
     @staticmethod
     def run(args, progress) -> int:
         out_dir = check_output_dir(args.out)
-        outputs = []
+        outputs = _character(out_dir, args.quick, _scaled(progress, 0.0, 0.3))
+        progress = _scaled(progress, 0.3, 1.0)
         rig_obj = face.build_default_rig_object(_scaled(progress, 0.0, 0.05))
         include = ("neutral", "muscles", "direct") + (() if args.quick else ("arkit", "visemes"))
         sheet_path = out_dir / "face_contact_sheet.png"
@@ -62,13 +67,10 @@ class Demo:
             sheet.render_sheet(bpy.context, rig_obj, sheet.expression_cells(get_rig(rig_obj), include), tmp,
                                columns=10, progress=_scaled(progress, 0.05, 0.5))
         outputs.append(sheet_path)
-        print(face.bake(bpy.context, rig_obj, "expressions", "all", _scaled(progress, 0.5, 0.7)))
-        outputs.append(face.export(bpy.context, rig_obj, str(out_dir / "face_expressions.glb")))
-        blend = out_dir / "face_rig.blend"
-        save_blend(blend)
-        outputs.append(blend)
+        outputs += _baked(rig_obj, out_dir / "face_expressions.glb", out_dir / "face_rig.blend",
+                          _scaled(progress, 0.5, 0.7))
         outputs.append(_morph_sheet(out_dir, _scaled(progress, 0.7, 0.73)))
-        weights = checked_spec({"text": SENTENCE, "out": str(out_dir / "speech.glb"),
+        weights = checked_spec({"text": SENTENCE, "out": str(out_dir / "speech.glb"), "style": "nodder",
                                 "sheet": str(out_dir / "speech_contact_sheet.png")}, FPS)
         weights["extra_sheets"] = [(out_dir / "speech_contact_sheet_three_quarter.png", "three-quarter")]
         outputs += run_line(weights, None, FPS, _scaled(progress, 0.73, 0.8))
@@ -84,6 +86,32 @@ class Demo:
         print(written(outputs))
         print(_compare(out_dir / "speech.glb", out_dir / "speech_cache.glb"))
         return 0
+
+
+def _character(out_dir: Path, quick: bool, progress) -> list[Path]:
+    """The default character: contact sheets of the face's shapes on its whole head (front, three-quarter),
+    its expressions baked and exported as one GLB, the character as .blend."""
+    body = character.build_character_object(_scaled(progress, 0.0, 0.2))
+    include = ("neutral", "visemes") if quick else ("neutral", "arkit", "visemes")
+    cells = sheet.expression_cells(get_rig(body), include)
+    outputs = []
+    for view, name, span in (("front", "character_contact_sheet.png", (0.2, 0.5)),
+                             ("three-quarter", "character_contact_sheet_three_quarter.png", (0.5, 0.8))):
+        path = out_dir / name
+        with atomic_output(path) as tmp:
+            sheet.render_sheet(bpy.context, body, cells, tmp, columns=12, view=view,
+                               progress=_scaled(progress, *span))
+        outputs.append(path)
+    return outputs + _baked(body, out_dir / "character_expressions.glb", out_dir / "character.blend",
+                            _scaled(progress, 0.8, 0.95))
+
+
+def _baked(rig_obj, glb: Path, blend: Path, progress) -> list[Path]:
+    """All expressions baked into ``rig_obj``'s shape keys, exported as ``glb``; the file saved as ``blend``."""
+    print(face.bake(bpy.context, rig_obj, "expressions", "all", progress))
+    exported = face.export(bpy.context, rig_obj, str(glb))
+    save_blend(blend)
+    return [exported, blend]
 
 
 def _morph_sheet(out_dir: Path, progress) -> Path:

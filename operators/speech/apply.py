@@ -103,7 +103,7 @@ def _remove_previous_take(scene, obj, owner, take_target: str, layers=()) -> Non
         head = "head" in owned
         owned.discard("head")
         fcurves.remove_fcurves(owner, tuple(controls.layer_prefix(layer) for layer in sorted(owned))
-                               + (head_motion.HEAD_PATHS if head else ()))
+                               + (head_motion.head_paths(obj) if head else ()))
         if head:
             head_motion.reset_head(obj)
         if TAKE_LAYERS_PROPERTY in obj:
@@ -182,7 +182,9 @@ def apply_take(scene, obj, take, *, start_frame: int | None = None, audio_path: 
             for track in tracks:
                 low, high = take.ranges.get(track.name, (0.0, 1.0))
                 controls.ensure_property(obj, track.name, layer, low, high)
-    owned = [*take.layers, *(["head"] if any(isinstance(k, tuple) for k in curves) else [])]
+    head_paths = set(head_motion.head_paths(obj))
+    owned = [*take.layers, *(["head"] if any((k[0] if isinstance(k, tuple) else k) in head_paths for k in curves)
+                              else [])]
     _remove_previous_take(scene, obj, owner, take.target, owned)
     try:
         for group in dict.fromkeys(groups.get(key, "Speech") for key in curves):

@@ -11,7 +11,8 @@ from .services import run_line, shared_default_rig
 
 
 def _common_arguments(parser) -> None:
-    parser.add_argument("--rig", help="a .blend with a face rig (default: the default head)")
+    parser.add_argument("--rig", help="a .blend with a face rig or a character (default: the default character; "
+                                      "'mask' for the face-only default head)")
     parser.add_argument("--fps", type=float, default=30.0, help="frame rate of the animation (default 30)")
     parser.add_argument("--sheet", help="also write a contact sheet of the frames at phoneme centres (.png)")
     parser.add_argument("--view", choices=tuple(VIEWS), default="front",

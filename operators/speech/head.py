@@ -5,6 +5,10 @@ rotation about a neck pivot, so the artist's own location/rotation keys are neve
 teeth and tongue are parented to the rig object and follow; exports carry it as the root node's
 rotation and translation in the take's clip.
 
+A character (a rig with the head controls of ``character.head``) turns its head on its neck instead: the
+channels go to its behaviour layer (``fh.behavior.head_pitch/yaw/roll``), whose mixed values drive the
+armature's neck and head bones; exports carry them as those bones' rotation.
+
 Blender applies the delta rotation after the object's own rotation (``matrix = D @ R``), so turning by
 ``D`` about the pivot ``c`` (the object's own coordinates) needs ``delta_location = c' - D c'`` with
 ``c' = R S c``.
@@ -16,6 +20,24 @@ import numpy as np
 from ..adapters.timing import seconds_to_frames
 
 HEAD_PATHS = ("delta_rotation_euler", "delta_location")
+HEAD_LAYER = "behavior"
+
+
+def _on_bones(obj) -> bool:
+    """Does ``obj`` turn its head on an armature's bones (a character), not as a whole?"""
+    from ...faces_hands_addon.character.head import HEAD_CONTROLS
+    from ..adapters.rig_store import rig_controls
+    names = {name for name, _, _ in rig_controls(obj)}
+    return all(control in names for control in HEAD_CONTROLS)
+
+
+def head_paths(obj) -> tuple[str, ...]:
+    """The data paths a take's head motion writes on ``obj`` (what replacing a take removes)."""
+    if _on_bones(obj):
+        from ...faces_hands_addon.character.head import HEAD_CONTROLS
+        from ..adapters.controls import data_path
+        return tuple(data_path(control, HEAD_LAYER) for control in HEAD_CONTROLS)
+    return HEAD_PATHS
 
 
 def neck_pivot(obj) -> np.ndarray:
@@ -54,11 +76,32 @@ def _delta_location(obj, rx, ry, rz) -> np.ndarray:
     return pivot[None, :] - turn @ pivot
 
 
+def _pose_head_bones(obj, controls: dict) -> None:
+    """:func:`pose_head` of a character: the artist's layer of its head controls (the take's curves on the
+    behaviour layer muted meanwhile), back to rest for empty ``controls``."""
+    from ...faces_hands_addon.character.head import TRACK_CONTROLS
+    from ..adapters.controls import prop_name
+    from ..adapters.fcurves import existing_channelbag
+    bag = existing_channelbag(obj)
+    paths = set(head_paths(obj))
+    for fcurve in (bag.fcurves if bag is not None else ()):
+        if fcurve.data_path in paths:
+            fcurve.mute = bool(controls)
+    for track, control in TRACK_CONTROLS.items():
+        obj[prop_name(control)] = float(controls.get(track, 0.0))
+        if not controls:
+            obj[prop_name(control, HEAD_LAYER)] = 0.0
+    obj.update_tag()
+
+
 def pose_head(obj, controls: dict) -> None:
     """Hold the head at one pose for a still (a contact-sheet cell): ``controls``' ``head.pitch/yaw/roll``
     as the delta transform, with the take's head F-curves muted meanwhile; empty ``controls``: the curves
     play again and the delta goes back to rest."""
     from ..adapters.fcurves import existing_channelbag
+    if _on_bones(obj):
+        _pose_head_bones(obj, controls)
+        return
     if obj.rotation_mode not in EULER_ORDERS:
         return
     bag = existing_channelbag(obj)
@@ -75,8 +118,14 @@ def head_curves(obj, head, scene, start_frame: float) -> dict:
     """``(data_path, index) -> (frames, values)`` of the delta rotation and location that turn ``obj`` by
     the take's ``head`` tracks (``head.pitch`` + raises the chin, ``head.yaw`` + turns to the character's
     left, ``head.roll`` + tilts the top to its left); empty without head tracks, or for an object whose
-    rotation is a quaternion or axis-angle (its delta is then a quaternion, which this does not write)."""
+    rotation is a quaternion or axis-angle (its delta is then a quaternion, which this does not write). A
+    character gets the tracks as its behaviour layer's head controls (module docstring)."""
     tracks = {t.name: t for t in head}
+    if tracks and _on_bones(obj):
+        from ...faces_hands_addon.character.head import TRACK_CONTROLS
+        from ..adapters.controls import data_path
+        return {data_path(TRACK_CONTROLS[name], HEAD_LAYER): (seconds_to_frames(t.times, scene, start_frame), t.values)
+                for name, t in tracks.items() if name in TRACK_CONTROLS}
     if not tracks or obj.rotation_mode not in EULER_ORDERS:
         return {}
     times = np.unique(np.concatenate([t.times for t in tracks.values()]))
@@ -96,6 +145,14 @@ def head_curves(obj, head, scene, start_frame: float) -> dict:
 
 
 def reset_head(obj) -> None:
-    """The delta transform back to rest (after its F-curves are removed)."""
+    """The delta transform (a character: its behaviour layer's head controls) back to rest, after its
+    F-curves are removed."""
+    if _on_bones(obj):
+        from ...faces_hands_addon.character.head import HEAD_CONTROLS
+        from ..adapters.controls import prop_name
+        for control in HEAD_CONTROLS:
+            obj[prop_name(control, HEAD_LAYER)] = 0.0
+        obj.update_tag()
+        return
     obj.delta_rotation_euler = (0.0, 0.0, 0.0)
     obj.delta_location = (0.0, 0.0, 0.0)

@@ -14,9 +14,10 @@ from ...faces_hands_addon.core.errors import UserError
 from ..adapters.blendfile import open_blend
 from ..adapters.export import save_or_export
 from ..adapters.outputs import atomic_output
-from ..adapters.rig_store import adopt_rig, find_rig
+from ..adapters.rig_store import adopt_rig, is_rig
 from ..adapters.targets import write_live_link
 from ..adapters.timing import scene_fps, set_scene_fps
+from ..character import services as character
 from ..face import services as face, sheet
 from ..face.objects import EXPORT_ROLES
 from . import apply, head as head_motion
@@ -24,20 +25,28 @@ from . import apply, head as head_motion
 __all__ = ["run_line", "shared_default_rig", "phoneme_cells"]
 
 
+MASK = "mask"         # ``--rig mask``: the face-only default head instead of the default character
+
+
 def _prepare_rig(rig_path: str | None, fps: float, progress, engine_rig=None):
-    """The face rig of ``rig_path`` (or a new default head), with the scene at ``fps``; ``engine_rig``: the
-    file's engine rig, already loaded (a jobs worker reopens the file for every row, loads the rig once)."""
+    """The rig of ``rig_path`` (a face rig or a character in a .blend), the face-only default head for
+    ``"mask"``, or a new default character, with the scene at ``fps``; ``engine_rig``: the file's engine
+    rig, already loaded (a jobs worker reopens the file for every row, loads the rig once)."""
     try:
         check_fps(fps)
     except UserError:
         raise UserError(f"--fps {fps} is outside 1..240") from None
-    if rig_path:
+    if rig_path == MASK:
+        rig_obj = face.build_default_rig_object(progress)
+    elif rig_path:
         open_blend(rig_path)
-        rig_obj = find_rig(bpy.data.objects, kind=face.KIND)
+        rig_obj = next((o for o in bpy.data.objects if is_rig(o, face.KIND) or is_rig(o, character.KIND)), None)
+        if rig_obj is None:
+            raise UserError(f"{rig_path} holds no Faces & Hands face rig or character")
         if engine_rig is not None:
             adopt_rig(rig_obj, engine_rig)
     else:
-        rig_obj = face.build_default_rig_object(progress)
+        rig_obj = character.build_character_object(progress)
     set_scene_fps(bpy.context.scene, fps)
     return rig_obj
 
@@ -141,9 +150,10 @@ def run_line(spec: dict, rig_path, fps, progress, engine_rig=None) -> list[Path]
                           spec.get("cues"))
 
 
-def shared_default_rig(folder: str, fps: float, progress) -> str:
-    """Build the default head once into ``folder`` for every row of a jobs CSV; returns its path."""
-    _prepare_rig(None, fps, progress)
+def shared_default_rig(folder: str, fps: float, progress, which: str | None = None) -> str:
+    """Build the default character (``which`` ``"mask"``: the face-only head) once into ``folder`` for every
+    row of a jobs CSV; returns its path."""
+    _prepare_rig(which, fps, progress)
     rig_path = str(Path(folder) / "rig.blend")
     bpy.ops.wm.save_as_mainfile(filepath=rig_path, copy=True, check_existing=False)
     return rig_path

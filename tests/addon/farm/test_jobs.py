@@ -44,7 +44,7 @@ def two_workers(installed, tmp_path_factory):
     """The three rows on two workers (the rows' order between workers is whatever the queue gave)."""
     folder = tmp_path_factory.mktemp("jobs")
     manifest = _manifest(folder)
-    result = run_fh(installed, "jobs", manifest, "--out-dir", folder / "out", "--workers", "2")
+    result = run_fh(installed, "jobs", manifest, "--rig", "mask", "--out-dir", folder / "out", "--workers", "2")
     assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-3000:]
     return manifest, folder / "out"
 
@@ -65,13 +65,13 @@ def test_a_rerun_skips_exactly_the_current_rows(installed, two_workers, tmp_path
     out = tmp_path / "out"
     shutil.copytree(original, out, symlinks=True, copy_function=shutil.copy2)   # mtimes kept: still current
     before = {name: (out / name).read_bytes() for name in OUTPUTS}
-    result = run_fh(installed, "jobs", manifest, "--out-dir", out, "--workers", "2")
+    result = run_fh(installed, "jobs", manifest, "--rig", "mask", "--out-dir", out, "--workers", "2")
     assert result.returncode == 0, result.stderr[-2000:]
     assert _report(out) == {"done": [], "skipped": [2, 3, 4], "failed": [], "not_run": []}
     os.utime(out / "two.wav", ns=(1, 1))                  # one output no longer as its sidecar recorded it
-    result = run_fh(installed, "jobs", manifest, "--out-dir", out, "--check")
+    result = run_fh(installed, "jobs", manifest, "--rig", "mask", "--out-dir", out, "--check")
     assert "2 already current (a run skips them), 1 to run" in result.stdout, result.stdout + result.stderr
-    result = run_fh(installed, "jobs", manifest, "--out-dir", out)
+    result = run_fh(installed, "jobs", manifest, "--rig", "mask", "--out-dir", out)
     assert result.returncode == 0, result.stderr[-2000:]
     assert _report(out) == {"done": [3], "skipped": [2, 4], "failed": [], "not_run": []}
     assert all((out / name).read_bytes() == before[name] for name in OUTPUTS)      # the same bytes again
@@ -80,7 +80,7 @@ def test_a_rerun_skips_exactly_the_current_rows(installed, two_workers, tmp_path
 def test_a_worker_killed_mid_row_leaves_no_partial_file(installed, tmp_path):
     manifest = _manifest(tmp_path, ROWS[:2])
     out = tmp_path / "out"
-    process = subprocess.Popen(fh_command(installed, "jobs", manifest, "--out-dir", out), cwd=ROOT,
+    process = subprocess.Popen(fh_command(installed, "jobs", manifest, "--rig", "mask", "--out-dir", out), cwd=ROOT,
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     staging = out / ".fh-farm" / "staging"
     deadline = time.monotonic() + 300
@@ -107,7 +107,7 @@ def test_the_openjd_bundle_runs_under_openjd_run_with_the_same_bytes(installed, 
     manifest, local = two_workers
     out, bundle = tmp_path / "out", tmp_path / "bundle"
     blender = _standin(tmp_path)
-    result = run_fh(installed, "jobs", manifest, "--out-dir", out, "--openjd", bundle, "--chunk", "2",
+    result = run_fh(installed, "jobs", manifest, "--rig", "mask", "--out-dir", out, "--openjd", bundle, "--chunk", "2",
                     "--extension-zip", installed.zip_path, "--blender", blender)
     assert result.returncode == 0, result.stderr[-2000:]
     assert sorted(p.name for p in bundle.iterdir()) == ["asset_references.json", "parameter_values.json",

@@ -24,7 +24,7 @@ def _recording(path, channels=8, rate=96000, seconds=1.0):
 def test_the_source_recording_is_never_replaced(installed, tmp_path):
     take = tmp_path / "take.wav"
     before = _recording(take)
-    result = run_fh(installed, "lipsync", "--audio", take, "--transcript", "hello there", "--out",
+    result = run_fh(installed, "lipsync", "--rig", "mask", "--audio", take, "--transcript", "hello there", "--out",
                     tmp_path / "take.glb")
     assert result.returncode == 1
     assert "would replace the input" in result.stderr and "take.wav" in result.stderr
@@ -35,13 +35,13 @@ def test_the_source_recording_is_never_replaced(installed, tmp_path):
 def test_a_foreign_wav_beside_the_output_is_kept_unless_overwrite(installed, tmp_path):
     foreign = tmp_path / "line.wav"
     before = _recording(foreign, channels=2, rate=48000, seconds=0.2)
-    result = run_fh(installed, "speak", "--text", "Hi.", "--out", tmp_path / "line.glb")
+    result = run_fh(installed, "speak", "--rig", "mask", "--text", "Hi.", "--out", tmp_path / "line.glb")
     assert result.returncode == 1 and "was not written by Faces & Hands" in result.stderr
     assert foreign.read_bytes() == before and not (tmp_path / "line.glb").exists()
-    result = run_fh(installed, "speak", "--text", "Hi.", "--out", tmp_path / "line.glb", "--overwrite")
+    result = run_fh(installed, "speak", "--rig", "mask", "--text", "Hi.", "--out", tmp_path / "line.glb", "--overwrite")
     assert result.returncode == 0, result.stderr[-1500:]
     assert f"replacing {foreign}" in result.stdout and foreign.read_bytes() != before
-    again = run_fh(installed, "speak", "--text", "Hi.", "--out", tmp_path / "line.glb")   # ours now: replaced
+    again = run_fh(installed, "speak", "--rig", "mask", "--text", "Hi.", "--out", tmp_path / "line.glb")   # ours now: replaced
     assert again.returncode == 0, again.stderr[-1500:]
 
 
@@ -57,7 +57,7 @@ def test_jobs_csv_names_failing_rows_writes_the_others_and_repeats_bytes(install
         writer = csv.writer(handle)
         writer.writerow(["out", "text", "audio", "rate"])
         writer.writerows(rows)
-    result = run_fh(installed, "speak", "--jobs", jobs)
+    result = run_fh(installed, "speak", "--rig", "mask", "--jobs", jobs)
     assert result.returncode == 1, result.stdout[-2000:] + result.stderr[-2000:]
     summary = result.stdout.strip().splitlines()[-1]
     assert summary.startswith("faces_hands: 4 of 8 rows failed:"), summary
@@ -74,7 +74,7 @@ def test_jobs_csv_names_failing_rows_writes_the_others_and_repeats_bytes(install
 def test_fail_fast_runs_nothing_when_a_row_is_bad(installed, tmp_path):
     jobs = tmp_path / "jobs.csv"
     jobs.write_text(f"out,text,rate\n{tmp_path / 'ok.glb'},Fine.,\n{tmp_path / 'bad.glb'},Bad.,nan\n")
-    result = run_fh(installed, "speak", "--jobs", jobs, "--fail-fast")
+    result = run_fh(installed, "speak", "--rig", "mask", "--jobs", jobs, "--fail-fast")
     assert result.returncode == 1 and "row 3" in result.stdout and "nothing was run" in result.stdout
     assert sorted(p.name for p in tmp_path.iterdir()) == ["jobs.csv"]
 

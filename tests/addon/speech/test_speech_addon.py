@@ -187,7 +187,7 @@ def test_cli_speak_jobs_csv_glb_and_wav_start_together(installed, tmp_path):
     jobs.write_text("out,text,voice,cues\n"
                     f"{tmp_path / 'hello.glb'},Hello there.,en-us,{tmp_path / 'hello.json'}\n"
                     f"{tmp_path / 'hallo.fbx'},Guten Tag.,de,{tmp_path / 'hallo.tsv'}\n")
-    result = run_fh(installed, "speak", "--jobs", jobs, "--fps", "25")
+    result = run_fh(installed, "speak", "--rig", "mask", "--jobs", jobs, "--fps", "25")
     assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
     for name in ("hello.glb", "hello.wav", "hallo.fbx", "hallo.wav", "hello.json", "hallo.tsv"):
         assert (tmp_path / name).exists(), name
@@ -209,7 +209,7 @@ def test_cli_speak_bad_jobs_file_writes_nothing(installed, tmp_path):
     from conftest import run_fh
     jobs = tmp_path / "lines.csv"
     jobs.write_text("out,txt\n" f"{tmp_path / 'a.glb'},Hello.\n")              # a misspelt column
-    result = run_fh(installed, "speak", "--jobs", jobs)
+    result = run_fh(installed, "speak", "--rig", "mask", "--jobs", jobs)
     assert result.returncode == 1 and "unknown column(s) txt" in result.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == ["lines.csv"]
 
@@ -280,7 +280,7 @@ def test_cli_speak_thesis_example_with_behaviour_exports_blinks_wink_and_smile(i
     from faces_hands_addon.speech import synthesize
     text = "Hi! ;-) Can you show me the way to the conference hall? :-)"
     out = tmp_path / "hi.glb"
-    result = run_fh(installed, "speak", "--text", text, "--style", "neutral", "--seed", "1", "--out", out)
+    result = run_fh(installed, "speak", "--text", text, "--style", "neutral", "--seed", "1", "--rig", "mask", "--out", out)
     assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
     animation = _glb_weight_animation(out)
     times, weights = max((v for k, v in animation.items() if isinstance(k, str)), key=lambda tw: len(tw[1]))
@@ -309,7 +309,7 @@ def test_cli_speak_glb_shows_every_bilabial_closed_on_time(installed, tmp_path):
     from faces_hands_addon.speech.closures import lip_closures
     text = "Papa made a map, and Bob bought a bumpy boat."
     out = tmp_path / "papa.glb"
-    result = run_fh(installed, "speak", "--text", text, "--out", out)
+    result = run_fh(installed, "speak", "--rig", "mask", "--text", text, "--out", out)
     assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
     times, weights = max((v for k, v in _glb_weight_animation(out).items() if isinstance(k, str)),
                          key=lambda tw: len(tw[1]))

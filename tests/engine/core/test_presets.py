@@ -10,6 +10,7 @@ import pytest
 from faces_hands_addon import UserError, emotion  # noqa: F401  (emotion registers its formats)
 from faces_hands_addon.behavior import loudness as behavior_loudness  # noqa: F401  (registers the loudness format)
 from faces_hands_addon.behavior import styles as behavior_styles  # noqa: F401  (registers the behaviour format)
+from faces_hands_addon.character import retarget as character_retarget  # noqa: F401  (registers the bone map)
 from faces_hands_addon.core import presets
 from faces_hands_addon.face.expressions import load_expressions
 from faces_hands_addon.face.rig import build_default_rig
@@ -27,7 +28,8 @@ FORMATS = {"expressions": "faces_hands.expressions", "face/landmarks": "faces_ha
            "hand/geometric_muscles": "faces_hands.hand_geometric_muscles", "hand/poses": "faces_hands.hand_poses",
            "emotion/emotion_words": "faces_hands.emotion_words",
            "emotion/basic_expressions": "faces_hands.emotion_expressions",
-           "behavior/styles": "faces_hands.behavior_styles", "behavior/loudness": "faces_hands.loudness"}
+           "behavior/styles": "faces_hands.behavior_styles", "behavior/loudness": "faces_hands.loudness",
+           "character/bones": "faces_hands.bone_map", "performance/speech_priority": "faces_hands.speech_priority"}
 
 
 def _format_of(relative: str) -> str:

@@ -37,7 +37,8 @@ def test_settled_is_independent_of_what_came_before(rig):
 
 
 def test_registry_loads_every_kind_and_refuses_others(rig, tmp_path):
-    assert {"faces_hands.face_rig/1", "faces_hands.fitted_face_rig/1"} <= set(core_rig.rig_kinds())
+    assert {"faces_hands.face_rig/1", "faces_hands.fitted_face_rig/1", "faces_hands.character_rig/1"} <= \
+        set(core_rig.rig_kinds())
     data = core_rig.save_rig(rig)
     assert rig.identity == core_rig.rig_identity(data)
     loaded = core_rig.load_rig_bytes(data)
@@ -73,9 +74,11 @@ def test_damaged_archives_are_refused(rig, tmp_path):
 
 
 def _rig_classes():
+    from faces_hands_addon.character.rig import CharacterRig
+    from faces_hands_addon.character.user import FittedCharacterRig
     from faces_hands_addon.face.fitted import FittedFaceRig
     from faces_hands_addon.hand.rig import HandRig
-    return [FaceRig, FittedFaceRig, HandRig]
+    return [FaceRig, FittedFaceRig, HandRig, CharacterRig, FittedCharacterRig]
 
 
 @pytest.mark.parametrize("cls", _rig_classes(), ids=lambda c: c.__name__)
