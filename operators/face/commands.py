@@ -126,12 +126,14 @@ class Retarget:
         parser.add_argument("--source", required=True,
                             help="a .blend with a face rig whose animation is baked as weights, or a Live Link CSV")
         parser.add_argument("--rig", help="name of the rig object when the source file has several")
-        parser.add_argument("--csv-fps", type=float, default=60.0,
-                            help="frame rate the CSV's timecodes count in (Live Link Face: 60 unless set to 30)")
+        parser.add_argument("--csv-fps", type=float, default=None,
+                            help="frame rate the CSV's timecodes count in (default: found in the timecodes; "
+                                 "Live Link Face's 60 for a take shorter than a second)")
         parser.add_argument("--character", required=True,
                             help="the character: .blend, .glb/.gltf, .fbx or .obj with shape keys")
         parser.add_argument("--object", help="name of the character's mesh when the file has several")
-        parser.add_argument("--fps", type=float, default=30.0, help="frame rate of the output animation")
+        parser.add_argument("--fps", type=float, default=None,
+                            help="frame rate of the output animation (default: the take's own)")
         parser.add_argument("--out", required=True, help="output .glb, .fbx or .blend")
 
     @staticmethod

@@ -90,13 +90,13 @@ def export(context, obj, path: str, options: ExportOptions = ExportOptions()):
 
 def _take_weights(args, progress):
     """Frames (from 0), weights and frame rate of the take ``--source`` names (rig .blend or Live Link CSV)."""
-    from ...faces_hands_addon.anim.retarget import read_live_link_csv
+    from ...faces_hands_addon.anim.retarget import read_live_link_csv, take_rate
     from ..common.targets import animated_weights
     from ..common.timing import scene_fps
     if Path(args.source).suffix.lower() == ".csv":
         times, weights = read_live_link_csv(args.source, args.csv_fps)
-        fps = float(args.fps)
-        frames = np.arange(0, int(np.ceil(times[-1] * fps)) + 1, dtype=np.float64) if len(times) else np.zeros(1)
+        fps = float(args.fps) if args.fps else take_rate(times)
+        frames = np.arange(0, int(np.floor(times[-1] * fps + 1e-6)) + 1, dtype=np.float64)
         return frames, {n: np.interp(frames / fps, times, v) for n, v in weights.items()}, fps
     rig = rig_object(args.source, args.rig, progress)
     frames, weights = animated_weights(rig, bpy.context.scene)

@@ -1,0 +1,41 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Run by :mod:`.foreign_import` in a child Blender (the ``bpy`` module, or Blender in the background): import
+one foreign file with Blender's own importer into an empty scene and write what it made to a .blend.
+
+``<python or blender ...> import_child.py -- SOURCE SUFFIX OUT.blend``: prints one JSON line, the names of
+the objects written. It imports nothing from the extension: the parent checked the file's header and sizes
+and set this process's memory limit; an importer that fails leaves this process with a non-zero exit.
+"""
+import json
+import sys
+
+
+def _import(bpy, source: str, suffix: str) -> None:
+    if suffix == ".obj":
+        bpy.ops.wm.obj_import(filepath=source)
+    elif suffix == ".ply":
+        bpy.ops.wm.ply_import(filepath=source)
+    elif suffix == ".stl":
+        bpy.ops.wm.stl_import(filepath=source)
+    elif suffix in (".glb", ".gltf"):
+        bpy.ops.import_scene.gltf(filepath=source)
+    elif suffix == ".fbx":
+        bpy.ops.import_scene.fbx(filepath=source)
+    else:
+        raise SystemExit(f"no importer for {suffix}")
+
+
+def main(argv) -> None:
+    source, suffix, out = argv[argv.index("--") + 1:][:3]
+    import bpy  # noqa: PLC0415 - Blender or the bpy module, loaded only in the child
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    before = set(bpy.data.objects)
+    _import(bpy, source, suffix)
+    made = [o for o in bpy.data.objects if o not in before]
+    bpy.data.libraries.write(out, set(made), fake_user=True)
+    sys.stdout.write("FH-IMPORTED " + json.dumps([o.name for o in made]) + "\n")
+    sys.stdout.flush()
+
+
+if __name__ == "__main__":
+    main(sys.argv)
