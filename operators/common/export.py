@@ -32,7 +32,7 @@ import numpy as np
 from mathutils import Matrix
 
 from ...faces_hands_addon.core.errors import UserError
-from ...faces_hands_addon.core.fbx_stamp import fix_creation_stamp
+from ...faces_hands_addon.core.fbx_stamp import reproducible
 from . import export_transforms as transforms
 from .blendfile import save_blend
 from .outputs import atomic_output, check_output_path
@@ -310,7 +310,7 @@ def _write(path: Path, clip: str, sampled: bool = True) -> None:
             filepath=str(path), use_selection=True, object_types={"MESH", "ARMATURE"}, use_mesh_modifiers=False,
             bake_anim=True, bake_anim_use_all_actions=False, bake_anim_use_nla_strips=False,
             bake_anim_simplify_factor=0.0, add_leaf_bones=False)
-        path.write_bytes(fix_creation_stamp(path.read_bytes()))   # same scene, same bytes
+        path.write_bytes(reproducible(path.read_bytes()))   # same scene, same bytes
 
 
 def export_rig(context, obj, filepath: str, roles, options: ExportOptions = ExportOptions()) -> Path:

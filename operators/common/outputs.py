@@ -15,15 +15,41 @@ from ...faces_hands_addon.core.errors import UserError
 
 
 def check_output_path(path: str | os.PathLike, suffixes: tuple[str, ...]) -> Path:
-    """Validate an output path before any work starts (suffix known, not a directory)."""
-    out = Path(path).expanduser()
+    """Validate an output path before any work starts, so a path problem is a message and not a failure
+    after the work: a name with a known suffix, not empty, not a folder or a special file, no symbolic
+    link loop, in a folder that exists (it is never created on the fly) and takes a new file."""
+    text = os.fspath(path) if path is not None else ""
+    if not str(text).strip():
+        raise UserError("the output path is empty; name a file")
+    if "\0" in str(text):
+        raise UserError(f"the output path {text!r} contains a NUL byte")
+    out = Path(text).expanduser()
     if out.suffix.lower() not in suffixes:
         raise UserError(f"output {out} must end with one of {', '.join(suffixes)}")
-    if out.is_dir():
+    try:
+        resolved = out.resolve()
+    except (RuntimeError, OSError):              # RuntimeError: a symlink loop (Python before 3.13)
+        raise UserError(f"output {out} is a symbolic link that points back to itself") from None
+    if resolved.is_dir():
         raise UserError(f"output {out} is a directory; give a file name")
-    if out.parent.exists() and not os.access(out.parent, os.W_OK):
-        raise UserError(f"cannot write into {out.parent}")
+    if resolved.exists() and not resolved.is_file():
+        raise UserError(f"output {out} exists and is not a regular file")
+    _check_folder_takes_files(resolved.parent, out)
     return out
+
+
+def _check_folder_takes_files(folder: Path, out: Path) -> None:
+    """The folder of ``out`` exists and a new file can be made in it (tried: permissions, read-only
+    disks and pseudo file systems all answer the same way)."""
+    if not folder.exists():
+        raise UserError(f"the folder {out.parent} of output {out.name} does not exist; create it first")
+    if not folder.is_dir():
+        raise UserError(f"{out.parent} is not a folder, so {out.name} cannot be written in it")
+    try:
+        with tempfile.NamedTemporaryFile(dir=folder, prefix=".fh-write-test-"):
+            pass
+    except OSError as error:
+        raise UserError(f"cannot write into {out.parent}: {error.strerror or error}") from None
 
 
 def check_output_dir(path: str | os.PathLike) -> Path:
@@ -90,7 +116,10 @@ def atomic_output(final_path: str | os.PathLike):
         if not tmp_path.exists():
             raise RuntimeError(f"nothing was written to {tmp_path}")
         final_path.parent.mkdir(parents=True, exist_ok=True)
-        shutil.move(str(tmp_path), str(final_path))
+        try:
+            shutil.move(str(tmp_path), str(final_path))
+        except OSError as error:
+            raise UserError(f"cannot write {final_path}: {error.strerror or error}") from None
         _LEDGER.append(final_path)
     finally:
         shutil.rmtree(tmp_dir, ignore_errors=True)

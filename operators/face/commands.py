@@ -18,6 +18,7 @@ MESH_SUFFIXES = (".obj", ".ply", ".stl", ".glb", ".gltf", ".fbx")
 
 
 class BuildFace:
+    INPUTS = ("mesh",)
     NAME = "build-face"
     HELP = "build a MEDUSA face rig (default head, or fitted to --mesh) and save it as a .blend"
 
@@ -59,6 +60,7 @@ class BuildFace:
 
 
 class Bake:
+    INPUTS = ("blend",)
     NAME = "bake"
     HELP = "bake a face rig to shape keys (basis | expressions | animation) and save .glb, .fbx or .blend"
 
@@ -86,6 +88,7 @@ class Bake:
 
 
 class Render:
+    INPUTS = ("blend",)
     NAME = "render"
     HELP = "render a labelled contact sheet of a face rig (neutral, muscles, jaw, ARKit, visemes)"
 
@@ -117,6 +120,7 @@ class Render:
 
 
 class Retarget:
+    INPUTS = ("source", "character")
     NAME = "retarget"
     HELP = ("put a take (a face rig's weight animation, or a Live Link Face CSV) onto a character with ARKit or "
             "viseme shape keys and save it as .glb, .fbx or .blend")

@@ -16,6 +16,7 @@ from .objects import EXPORT_ROLES
 
 
 class BuildHand:
+    INPUTS = ("photo", "points")
     NAME = "build-hand"
     HELP = "build an anatomical hand rig (the reference hand, or warped to a photo) and save it as a .blend"
 
@@ -47,6 +48,7 @@ class BuildHand:
 
 
 class AnimateHand:
+    INPUTS = ("blend",)
     NAME = "animate-hand"
     HELP = "animate a hand rig with a preset pose or motion, bake it and export .glb, .fbx or .blend"
 
@@ -77,6 +79,7 @@ class AnimateHand:
 
 
 class RenderHand:
+    INPUTS = ("blend",)
     NAME = "render-hand"
     HELP = "render a labelled contact sheet of a hand rig in preset poses"
 

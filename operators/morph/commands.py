@@ -44,6 +44,7 @@ def parse_setting(text: str) -> tuple[list[str], str, float, str]:
 
 
 class Morph:
+    INPUTS = ("model",)
     NAME = "morph"
     HELP = "create a face from a morphable model (attributes, constraints, caricature) and save .glb/.fbx/.blend"
 

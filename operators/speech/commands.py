@@ -49,6 +49,7 @@ def _run(args, spec: dict, progress) -> int:
 
 class Speak:
     NAME = "speak"
+    INPUTS = ("rig", "jobs")
     HELP = "speak text with espeak-ng on a face rig; writes .glb/.fbx/.blend plus the .wav beside it"
 
     @staticmethod
@@ -71,6 +72,7 @@ class Speak:
 
 class LipSync:
     NAME = "lipsync"
+    INPUTS = ("audio", "rig", "jobs")
     HELP = "lip-sync a face rig to recorded speech (WAV/FLAC/OGG) with its transcript"
 
     @staticmethod
