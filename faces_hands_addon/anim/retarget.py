@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.errors import UserError
+from ..core.foreign_files import read_text
 
 __all__ = ["ARKIT_NAMES", "LIVE_LINK_EXTRA", "aliases", "match_targets", "write_live_link_csv",
            "read_live_link_csv", "timecode_rate", "take_rate", "MAX_CSV_BYTES", "TIMECODE_RATE"]
@@ -146,16 +147,7 @@ def take_rate(times: np.ndarray) -> float:
 
 
 def _read_rows(path: Path) -> list[list[str]]:
-    if not path.is_file():
-        raise UserError(f"{path} does not exist")
-    if path.stat().st_size > MAX_CSV_BYTES:
-        raise UserError(f"{path} is larger than {MAX_CSV_BYTES // 1_000_000} MB")
-    try:
-        text = path.read_text(encoding="utf-8")
-    except UnicodeDecodeError as error:
-        raise UserError(f"{path}: not a readable UTF-8 CSV ({error})") from None
-    if "\0" in text:
-        raise UserError(f"{path} contains a NUL byte: not a text CSV")
+    text = read_text(path, "the Live Link CSV", MAX_CSV_BYTES)
     try:
         return list(csv.reader(text.splitlines()))
     except csv.Error as error:

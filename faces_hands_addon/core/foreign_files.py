@@ -27,7 +27,7 @@ from pathlib import Path
 
 from .errors import UserError
 
-__all__ = ["MAX_FOREIGN_BYTES", "MAX_UNPACKED_BYTES", "FORMATS", "check_path", "check_foreign_file"]
+__all__ = ["MAX_FOREIGN_BYTES", "MAX_UNPACKED_BYTES", "FORMATS", "check_path", "check_foreign_file", "read_text"]
 
 MAX_FOREIGN_BYTES = 1_000_000_000      # larger than any head or character we take; the importer needs several x
 MAX_UNPACKED_BYTES = 1_000_000_000     # FBX arrays unpacked, all together
@@ -68,6 +68,21 @@ def check_path(path, what: str = "the file") -> Path:
     if resolved.stat().st_size == 0:
         raise UserError(f"{text} is empty")
     return resolved
+
+
+def read_text(path, what: str, max_bytes: int) -> str:
+    """The UTF-8 text of ``path`` (see :func:`check_path`), at most ``max_bytes`` long, without NUL bytes
+    (which Python's csv module reads as data since 3.11): a UserError naming the problem otherwise."""
+    resolved = check_path(path, what)
+    if resolved.stat().st_size > max_bytes:
+        raise UserError(f"{path} is larger than {max_bytes / 1e6:g} MB")
+    try:
+        text = resolved.read_text(encoding="utf-8")
+    except UnicodeDecodeError as error:
+        raise UserError(f"{path} is not UTF-8 text ({error})") from None
+    if "\0" in text:
+        raise UserError(f"{path} contains a NUL byte at character {text.index(chr(0))}: not a text file")
+    return text
 
 
 def check_foreign_file(path, what: str = "the file", formats=FORMATS) -> Path:
