@@ -16,6 +16,7 @@ import os
 import subprocess
 import sys
 import tempfile
+from dataclasses import dataclass
 from pathlib import Path
 
 import bpy
@@ -23,12 +24,20 @@ import bpy
 from ...faces_hands_addon.core.errors import UserError
 from ...faces_hands_addon.core.foreign_files import FORMATS, check_foreign_file
 
-__all__ = ["MEMORY_LIMIT", "TIME_LIMIT_S", "import_foreign", "child_command"]
+__all__ = ["MEMORY_LIMIT", "TIME_LIMIT_S", "Imported", "import_foreign", "child_command"]
 
 MEMORY_LIMIT = 1_750 * 1024 * 1024     # the child's data; its code and Blender's libraries add ~0.2 GB
 TIME_LIMIT_S = 600.0
 CHILD = Path(__file__).resolve().with_name("import_child.py")
 MARK = "FH-IMPORTED "
+
+
+@dataclass(frozen=True)
+class Imported:
+    """What an import made: the new objects, and the frame rate their keys count in (a glTF clip's keys
+    land at its times x this rate, an FBX's at its own rate)."""
+    objects: list
+    fps: float
 
 
 def child_command(source: Path, out: Path) -> list[str]:
@@ -46,7 +55,7 @@ def _limit_memory() -> None:                        # runs in the child between 
     resource.setrlimit(resource.RLIMIT_DATA, (MEMORY_LIMIT, MEMORY_LIMIT))
 
 
-def _run_child(source: Path, out: Path, folder: Path) -> list[str]:
+def _run_child(source: Path, out: Path, folder: Path) -> dict:
     env = dict(os.environ, BLENDER_USER_RESOURCES=str(folder / "user"))    # no user add-ons or startup file
     try:
         done = subprocess.run(child_command(source, out), capture_output=True, text=True, errors="replace",
@@ -67,16 +76,16 @@ def _run_child(source: Path, out: Path, folder: Path) -> list[str]:
     return json.loads(lines[-1][len(MARK):])
 
 
-def import_foreign(path, what: str = "the file", formats=FORMATS) -> list:
+def import_foreign(path, what: str = "the file", formats=FORMATS) -> Imported:
     """Import ``path`` (checked, then imported in a child Blender: module docstring) into the current
-    scene's collection; returns the new objects."""
+    scene's collection."""
     source = check_foreign_file(path, what, formats)
     with tempfile.TemporaryDirectory(prefix="fh-import-") as tmp:
         folder = Path(tmp)
         out = folder / "imported.blend"
-        names = _run_child(source, out, folder)
+        made = _run_child(source, out, folder)
         with bpy.data.libraries.load(str(out), link=False) as (_, into):
-            into.objects = list(names)
+            into.objects = list(made["objects"])
         objects = [o for o in into.objects if o is not None]
     collection = bpy.context.scene.collection
     for obj in objects:
@@ -84,4 +93,4 @@ def import_foreign(path, what: str = "the file", formats=FORMATS) -> list:
             collection.objects.link(obj)
         obj.use_fake_user = False
     bpy.context.view_layer.update()
-    return objects
+    return Imported(objects, float(made["fps"]))

@@ -3,7 +3,7 @@
 one foreign file with Blender's own importer into an empty scene and write what it made to a .blend.
 
 ``<python or blender ...> import_child.py -- SOURCE SUFFIX OUT.blend``: prints one JSON line, the names of
-the objects written. It imports nothing from the extension: the parent checked the file's header and sizes
+the objects written and the frame rate the imported keys count in. It imports nothing from the extension: the parent checked the file's header and sizes
 and set this process's memory limit; an importer that fails leaves this process with a non-zero exit.
 """
 import json
@@ -33,7 +33,9 @@ def main(argv) -> None:
     _import(bpy, source, suffix)
     made = [o for o in bpy.data.objects if o not in before]
     bpy.data.libraries.write(out, set(made), fake_user=True)
-    sys.stdout.write("FH-IMPORTED " + json.dumps([o.name for o in made]) + "\n")
+    scene = bpy.context.scene                           # an FBX sets the frame rate its keys count in
+    sys.stdout.write("FH-IMPORTED " + json.dumps({"objects": [o.name for o in made],
+                                                  "fps": scene.render.fps / scene.render.fps_base}) + "\n")
     sys.stdout.flush()
 
 

@@ -122,13 +122,14 @@ class Render:
 class Retarget:
     INPUTS = ("source", "character")
     NAME = "retarget"
-    HELP = ("put a take (a face rig's weight animation, or a Live Link Face CSV) onto a character with ARKit or "
-            "viseme shape keys and save it as .glb, .fbx or .blend")
+    HELP = ("put a take (a face rig's weight animation, a Live Link Face CSV, or an exported GLB/FBX take) onto a "
+            "character with ARKit or viseme shape keys and save it as .glb, .fbx or .blend")
 
     @staticmethod
     def add_arguments(parser):
         parser.add_argument("--source", required=True,
-                            help="a .blend with a face rig whose animation is baked as weights, or a Live Link CSV")
+                            help="a .blend with a face rig whose animation is baked as weights, a Live Link CSV, "
+                                 "a take exported as .glb/.fbx, or Rhubarb mouth cues (.tsv/.json)")
         parser.add_argument("--rig", help="name of the rig object when the source file has several")
         parser.add_argument("--csv-fps", type=float, default=None,
                             help="frame rate the CSV's timecodes count in (default: found in the timecodes; "
@@ -137,7 +138,7 @@ class Retarget:
                             help="the character: .blend, .glb/.gltf, .fbx or .obj with shape keys")
         parser.add_argument("--object", help="name of the character's mesh when the file has several")
         parser.add_argument("--fps", type=float, default=None,
-                            help="frame rate of the output animation (default: the take's own)")
+                            help="frame rate of the output animation (default: the take's own; 30 for cues)")
         parser.add_argument("--out", required=True, help="output .glb, .fbx or .blend")
 
     @staticmethod

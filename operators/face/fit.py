@@ -159,7 +159,7 @@ def attach_rig(context, head, rig, world_matrix: np.ndarray, name: str | None = 
 def import_meshes(path: str, what: str = "the mesh file") -> list:
     """Import a mesh file with Blender's own importer (default axis conversion), checked and run in a child
     process (``common.foreign_import``); returns the new meshes."""
-    meshes = [o for o in import_foreign(path, what) if o.type == "MESH"]
+    meshes = [o for o in import_foreign(path, what).objects if o.type == "MESH"]
     if not meshes:
         raise UserError(f"{path} contains no mesh")
     return meshes
