@@ -98,6 +98,8 @@ class Render:
         parser.add_argument("--sheet", choices=("expressions", "muscles"), default="expressions",
                             help="expressions: neutral, muscles, direct parameters, ARKit and visemes; "
                                  "muscles: neutral, muscles and direct parameters only")
+        parser.add_argument("--cells", help="comma-separated cells to render, in this order (default: the whole "
+                                             "sheet), e.g. neutral,jaw_open,viseme_PP,eyeBlinkLeft")
         parser.add_argument("--rig", help="name of the rig object when the file has several")
         parser.add_argument("--columns", type=int, default=10)
         parser.add_argument("--view", choices=tuple(sheet.VIEWS), default="front",
@@ -111,12 +113,24 @@ class Render:
             raise UserError("--columns must be between 1 and 50")
         rig_obj = services.rig_object(args.blend, args.rig, progress)
         include = ("neutral", "muscles", "direct") + (("arkit", "visemes") if args.sheet == "expressions" else ())
-        cells = sheet.expression_cells(get_rig(rig_obj), include)
+        cells = _chosen(sheet.expression_cells(get_rig(rig_obj)), args.cells) if args.cells else \
+            sheet.expression_cells(get_rig(rig_obj), include)
         with atomic_output(out) as tmp:
             sheet.render_sheet(bpy.context, rig_obj, cells, tmp, columns=args.columns, progress=progress,
                                view=args.view)
         print(written([out]))
         return 0
+
+
+def _chosen(cells, names: str) -> list:
+    """The cells named in ``names`` (comma-separated), in that order; unknown names are refused."""
+    known = dict(cells)
+    wanted = [name.strip() for name in names.split(",") if name.strip()]
+    unknown = [name for name in wanted if name not in known]
+    if unknown or not wanted:
+        raise UserError(f"--cells: no cell named {', '.join(unknown) or names!r}; cells are "
+                        f"{', '.join(list(known)[:8])}, ... (every muscle, direct parameter, ARKit and viseme)")
+    return [(name, known[name]) for name in wanted]
 
 
 class Retarget:
