@@ -1,21 +1,12 @@
-"""The N-panel draws (with a recording stand-in layout: the bpy module has no UI) for an empty scene,
-a face rig, and with the control filter."""
+"""The N-panel draws (with a stand-in layout that holds every call to Blender's real UILayout signatures:
+the bpy module has no UI) for an empty scene, a face rig, and with the control filter."""
 from __future__ import annotations
 
 from types import SimpleNamespace
 
 import pytest
 
-
-class Layout:
-    def __init__(self, log):
-        self.log = log
-
-    def __getattr__(self, name):
-        def call(*args, **kwargs):
-            self.log.append((name, args, kwargs))
-            return Layout(self.log)
-        return call
+from ui_layout import CheckedLayout
 
 
 def _draw_all(bpy):
@@ -27,7 +18,8 @@ def _draw_all(bpy):
         if hasattr(cls, "poll") and not cls.poll(context):
             drawn[name] = None
             continue
-        cls.draw(SimpleNamespace(layout=Layout(log)), context)
+        layout = CheckedLayout(bpy, log)
+        cls.draw(SimpleNamespace(layout=layout), context)
         drawn[name] = log
     return drawn
 

@@ -201,27 +201,16 @@ def test_make_animatable_builds_a_face_rig_on_the_morphed_face(bpy_clean):
 
 def test_morph_panels_draw(bpy_clean):
     from types import SimpleNamespace
+
+    from ui_layout import CheckedLayout
     bpy = bpy_clean
-
-    class Layout:
-        def __init__(self, log):
-            self.log = log
-
-        def __getattr__(self, name):
-            def call(*args, **kwargs):
-                self.log.append((name, args, kwargs))
-                return Layout(self.log)
-            return call
-
-        def __setattr__(self, name, value):
-            object.__setattr__(self, name, value)
 
     _new(bpy)
     for name in ("FH_PT_morph", "FH_PT_morph_attributes", "FH_PT_morph_segments", "FH_PT_morph_constraints"):
         cls = getattr(bpy.types, name)
         log = []
         assert not hasattr(cls, "poll") or cls.poll(bpy.context)
-        cls.draw(SimpleNamespace(layout=Layout(log)), bpy.context)
+        cls.draw(SimpleNamespace(layout=CheckedLayout(bpy, log)), bpy.context)
         assert log, name
         if name == "FH_PT_morph_attributes":
             props = [c[1][1] for c in log if c[0] == "prop"]
