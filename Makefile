@@ -30,7 +30,7 @@ endif
 USER_DIR := .blender-user$(if $(filter $(DEFAULT_BPY),$(BPY)),,-bpy$(BPY))
 VERSION := $(shell sed -n 's/^version = "\(.*\)"/\1/p' blender_manifest.toml)
 ZIP := dist/faces_hands-$(VERSION)-$(LINE)-linux_x64.zip
-SOURCES := $(shell find blender_manifest.toml __init__.py faces_hands_addon operators panels presets assets LICENSE NOTICE README.md -type f -not -name '*.pyc' -not -path '*/__pycache__/*' 2>/dev/null)
+SOURCES := $(shell find blender_manifest.toml __init__.py names.py faces_hands_addon operators panels presets assets LICENSE NOTICE README.md -type f -not -name '*.pyc' -not -path '*/__pycache__/*' 2>/dev/null)
 PYTEST_ARGS ?=
 # pytest-xdist workers: the suite is mostly single-threaded Blender work, so one worker per core
 # (at most 4; 2 on CI: 406 -> 242 s for the engine tests); TEST_WORKERS=0 runs everything in one process

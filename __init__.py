@@ -2,15 +2,15 @@
 """Faces & Hands: communicative virtual humans for Blender (after I. Albrecht, *Faces and Hands*, 2005).
 
 This file is the extension entry point and only registers ``operators/`` and ``panels/``, through
-``operators.common.registry`` (the one place that registers and unregisters anything). The science lives in
+``operators.bases.registry`` (the one place that registers and unregisters anything). The science lives in
 the Blender-free engine ``faces_hands_addon/``.
 """
 import atexit
 
 from . import operators, panels
 from .operators import cli
-from .operators.common import registry
-from .operators.common.paths import configure_presets, write_session_bytecode
+from .operators.bases import registry
+from .operators.adapters.paths import configure_presets, write_session_bytecode
 
 _registered = False
 

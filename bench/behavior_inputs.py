@@ -53,7 +53,7 @@ def _long_file(folder: Path, seconds: float) -> Path:
 
 
 def _perform(take):
-    from faces_hands_addon.speech.performance import with_loudness, with_nonverbal
+    from faces_hands_addon.performance import with_loudness, with_nonverbal
     take = with_nonverbal(take, style="neutral", seed=0)
     take, curve = with_loudness(take)
     return take, curve
@@ -109,7 +109,7 @@ def child(case: str, folder: Path) -> None:
     sys.path.insert(0, str(ROOT / "bench"))
     import _harness  # noqa: F401  (faces_hands_addon = the installed copy)
     import faces_hands_addon.speech.takes  # noqa: F401
-    import faces_hands_addon.speech.performance  # noqa: F401
+    import faces_hands_addon.performance  # noqa: F401
     base_kb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     rate = 16000
     if case == "silence":

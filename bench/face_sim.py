@@ -124,7 +124,7 @@ def push_ms(rig, repeats: int = 200) -> float:
 def live_preview_fps(frames: int = 96) -> tuple[float, int]:
     """The add-on's live step on the default head in Blender (read controls, simulate, push everything)."""
     import bpy
-    live = _harness.EXTENSION.operators.common.live
+    live = _harness.EXTENSION.operators.bases.live
     muscles = _harness.EXTENSION.operators.face.objects.update_muscle_display
     bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
     bpy.ops.faces_hands.build_face_rig()

@@ -64,7 +64,7 @@ def main() -> int:
     services, render, sheet = (_harness.addon_module(f"operators.{m}")
                                for m in ("hand.services", "common.render", "hand.sheet"))
     obj = services.build_hand_object()
-    rig = _harness.addon_module("operators.common.rig_store").get_rig(obj, "hand")
+    rig = _harness.addon_module("operators.adapters.rig_store").get_rig(obj, "hand")
     folder = Path(args.out_dir) if args.out_dir else None
     if folder:
         folder.mkdir(parents=True, exist_ok=True)

@@ -36,7 +36,7 @@ FRAME_DT = 1.0 / 30.0
 def measure_hand(obj, table, names, compiled: bool) -> dict:
     """:func:`live_tick.measure` of the hand: the 'showcase' contractions, the hand's hook, the compiled
     (``compiled``) or the numpy path."""
-    rig = _harness.EXTENSION.operators.common.rig_store.get_rig(obj)
+    rig = _harness.EXTENSION.operators.adapters.rig_store.get_rig(obj)
     rig.hand.integrator.backend = rig.contact.backend = rig.pseudo.backend = "auto" if compiled else "numpy"
     rig.reset()
 
@@ -52,7 +52,7 @@ def main() -> None:
     bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
     assert bpy.ops.faces_hands.build_hand_rig() == {"FINISHED"}
     obj = bpy.context.active_object
-    rig = _harness.EXTENSION.operators.common.rig_store.get_rig(obj)
+    rig = _harness.EXTENSION.operators.adapters.rig_store.get_rig(obj)
     names = list(rig.muscle_names)
     times, table = motion.motion_table("showcase", names, 1.0 / FRAME_DT)
     print(f"settings: Blender {bpy.app.version_string}, hand '{obj.name}' {len(obj.data.vertices)} vertices, "

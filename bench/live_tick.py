@@ -78,9 +78,9 @@ def measure(obj, frames: int, set_controls=_set_animated_controls, hook=None, dt
     timing), then the split rig lookup / step / write (pose + ``hook``, default: the face's muscle display)
     / depsgraph from a second pass of the same ticks."""
     ext = _harness.EXTENSION.operators
-    live = ext.common.live
+    live = ext.bases.live
     hook = ext.face.objects.update_muscle_display if hook is None else hook
-    rig_store, controls, poses = ext.common.rig_store, ext.common.controls, ext.common.poses
+    rig_store, controls, poses = ext.adapters.rig_store, ext.adapters.controls, ext.adapters.poses
     context = bpy.context
     for frame in range(3):
         live.live_step(context, obj, hook, dt)
@@ -129,7 +129,7 @@ def main() -> None:
         obj = make()
         load = os.getloadavg()[0]
         f = measure(obj, args.frames if label != "50k" else max(12, args.frames // 2))
-        rig = _harness.EXTENSION.operators.common.rig_store.get_rig(obj)
+        rig = _harness.EXTENSION.operators.adapters.rig_store.get_rig(obj)
         f.update(nodes=rig.face.network.node_count, vertices=len(obj.data.vertices),
                  substeps=rig.substeps_per_frame(FRAME_DT))
         print(f"{label:>4} (load average {load:.1f}): {f['vertices']} vertices, {f['nodes']} simulated nodes, "

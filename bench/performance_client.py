@@ -39,7 +39,7 @@ import gltf_client as client  # noqa: E402
 import numpy as np  # noqa: E402
 from faces_hands_addon.behavior import generate_behavior  # noqa: E402
 from faces_hands_addon.emotion import load_model  # noqa: E402
-from faces_hands_addon.speech.performance import _winks, voice_settings  # noqa: E402
+from faces_hands_addon.performance import _winks, voice_settings  # noqa: E402
 from faces_hands_addon.speech.takes import take_from_text  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]

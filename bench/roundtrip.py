@@ -60,7 +60,7 @@ def _speak(rig) -> None:
     settings.behavior_style, settings.behavior_seed = "expressive", 2
     bpy.context.view_layer.objects.active = rig
     assert bpy.ops.faces_hands.speak_text(text=LINE) == {"FINISHED"}
-    keys = [k.co[0] for c in module("operators.common.fcurves").existing_channelbag(rig).fcurves
+    keys = [k.co[0] for c in module("operators.adapters.fcurves").existing_channelbag(rig).fcurves
             for k in c.keyframe_points]
     scene.frame_end = int(math.ceil(max(keys)))
     assert bpy.ops.faces_hands.bake_face(mode="ANIMATION") == {"FINISHED"}
@@ -94,7 +94,7 @@ def fitted_face(folder: Path, applied: bool):
     if applied:
         bpy.ops.object.transform_apply(location=True, rotation=True, scale=True)
     assert bpy.ops.faces_hands.fit_face_rig() == {"FINISHED"}
-    rig = module("operators.common.rig_store").rig_of(bpy.context.active_object) or head
+    rig = module("operators.adapters.rig_store").rig_of(bpy.context.active_object) or head
     _speak(rig)
     return rig, module("operators.face.objects").EXPORT_ROLES
 
@@ -166,12 +166,12 @@ def measure(name: str, obj, roles, folder: Path) -> dict:
     scene = bpy.context.scene
     fps = scene.render.fps / scene.render.fps_base
     frames = frames_of(scene)
-    objects = module("operators.common.export").export_objects(obj, roles)
+    objects = module("operators.adapters.export").export_objects(obj, roles)
     wanted, names = checks.world_vertices(bpy, objects, frames), checks.mesh_names(objects)
     paths = {}
     for fmt in ("glb", "fbx"):
         paths[fmt] = folder / f"{name.replace(' ', '_').replace(',', '')}.{fmt}"
-        module("operators.common.export").export_rig(bpy.context, obj, str(paths[fmt]), roles)
+        module("operators.adapters.export").export_rig(bpy.context, obj, str(paths[fmt]), roles)
     result = {}
     for fmt, path in paths.items():
         imported = checks.reimport(bpy, path, fps)
@@ -190,7 +190,7 @@ def take_formats(rig, folder: Path) -> dict:
     """The take of ``rig`` written in every format, read back (frames and largest weight difference)."""
     from faces_hands_addon.anim.retarget import read_live_link_csv, take_rate
     from faces_hands_addon.speech.cues import cues_text, mouth_cues, read_cues  # noqa: F401 (mouth_cues: doc)
-    targets, scene = module("operators.common.targets"), bpy.context.scene
+    targets, scene = module("operators.adapters.targets"), bpy.context.scene
     frames, weights = targets.animated_weights(rig, scene)
     out = {"take_frames": len(frames)}
     csv = Path(targets.write_live_link(rig, scene, str(folder / "take.csv")))
@@ -245,19 +245,19 @@ def _played(path: Path):
     bpy.ops.wm.open_mainfile(filepath=str(path))
     avatar, scene = bpy.data.objects["Avatar"], bpy.context.scene
     frames = list(range(scene.frame_start, scene.frame_end + 1))
-    bag = module("operators.common.fcurves").existing_channelbag(avatar.data.shape_keys)
+    bag = module("operators.adapters.fcurves").existing_channelbag(avatar.data.shape_keys)
     return frames, {c.data_path.split('"')[1]: np.array([c.evaluate(f) for f in frames]) for c in bag.fcurves}
 
 
 def hand_fbx(folder: Path) -> dict:
     obj, roles = hand()
-    path = module("operators.common.export").export_rig(bpy.context, obj, str(folder / "hand_formats.fbx"), roles)
+    path = module("operators.adapters.export").export_rig(bpy.context, obj, str(folder / "hand_formats.fbx"), roles)
     imported = checks.reimport(bpy, path, FPS)
     armature = next((o for o in imported if o.type == "ARMATURE"), None)
     skin = next(o for o in imported if o.type == "MESH")
     keyed = 0
     if armature is not None and armature.animation_data and armature.animation_data.action:
-        bag = module("operators.common.fcurves").existing_channelbag(armature)
+        bag = module("operators.adapters.fcurves").existing_channelbag(armature)
         keyed = len({c.data_path.split('"')[1] for c in bag.fcurves if c.data_path.startswith("pose.bones")})
     return {"hand_fbx_bones": len(armature.data.bones) if armature else 0,
             "hand_fbx_groups": len(skin.vertex_groups), "hand_fbx_keyed_bones": keyed,

@@ -185,7 +185,7 @@ def time_keyframes(utterance, fps: int) -> float:
     apply = _harness.EXTENSION.operators.speech.apply
     bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
     scene = bpy.context.scene
-    _harness.EXTENSION.operators.common.timing.set_scene_fps(scene, fps)
+    _harness.EXTENSION.operators.adapters.timing.set_scene_fps(scene, fps)
     rig = bpy.data.objects.new("BenchRig", None)
     rig["fh_rig"] = 1
     mesh = bpy.data.meshes.new("BenchVisemes")

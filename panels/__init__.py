@@ -3,7 +3,7 @@
 Panels only draw; properties live in ``properties``.
 
 The extension root registers ``PROPERTY_CLASSES``, ``PROPERTIES``, ``CLASSES``, ``MENUS`` and ``CLEANUPS`` through
-``operators.common.registry``.
+``operators.bases.registry``.
 """
 from . import emotion_picker, face, hand, main, menus, morph, morph_properties, properties, speech
 

@@ -4,10 +4,9 @@ Contractions, bake, export, retarget, and the muscle controls by finger. Only dr
 from the rig object's stored control list (no engine work here)."""
 from __future__ import annotations
 
-
 import bpy
 
-from .base import ROOT, SidebarPanel, draw_rig_controls, rig_of_kind
+from .base import ROOT, RigControlsPanel, SidebarPanel, draw_bake_box, draw_live_row, rig_of_kind
 
 GROUPS = ("thumb", "index", "middle", "ring", "pinky", "wrist")
 
@@ -32,33 +31,20 @@ class FH_PT_hand(SidebarPanel, bpy.types.Panel):
         if obj is None:
             layout.label(text="Select a hand rig to pose and animate it", icon="INFO")
             return
-        row = layout.row(align=True)
-        running = bool(context.window_manager.faces_hands_runtime.live_object)
-        row.operator("faces_hands.live_hand", text="Stop Live" if running else "Live Simulation",
-                     icon="PAUSE" if running else "PLAY", depress=running)
-        row.operator("faces_hands.reset_controls", icon="LOOP_BACK")
+        draw_live_row(layout, context, "faces_hands.live_hand")
         row = layout.row(align=True)
         row.operator_menu_enum("faces_hands.apply_hand_pose", "pose", text="Pose", icon="HAND")
         row.operator_menu_enum("faces_hands.animate_hand", "motion", text="Motion", icon="ANIM")
         layout.operator("faces_hands.solve_contractions", icon="CON_KINEMATIC")
-        box = layout.box()
-        row = box.row(align=True)
-        row.operator("faces_hands.bake_hand", text="Bake", icon="ACTION")
-        row.operator("faces_hands.export_hand", text="Export", icon="EXPORT")
+        box = draw_bake_box(layout, "faces_hands.bake_hand", "faces_hands.export_hand", bake_icon="ACTION")
         box.operator("faces_hands.retarget_hand", icon="ARMATURE_DATA")
 
 
-class FH_PT_hand_controls(SidebarPanel, bpy.types.Panel):
+class FH_PT_hand_controls(RigControlsPanel, bpy.types.Panel):
     bl_label = "Muscles"
     bl_idname = "FH_PT_hand_controls"
     bl_parent_id = "FH_PT_hand"
-
-    @classmethod
-    def poll(cls, context):
-        return _hand(context) is not None
-
-    def draw(self, context):
-        draw_rig_controls(self.layout, context, _hand(context), GROUPS, "No muscle matches the filter")
+    rig_kind, group_order, nothing = "hand", GROUPS, "No muscle matches the filter"
 
 
 CLASSES = [FH_PT_hand, FH_PT_hand_controls]

@@ -9,6 +9,7 @@ import bpy
 
 from ..faces_hands_addon.morph.model import matching_examples
 from .base import ROOT, SidebarPanel
+from ..names import MORPH_EXAMPLES, MORPH_HISTORY, MORPH_MARKER, MORPH_STATE
 
 THUMBNAILS = 12
 ABOUT = ("Default model: learned from a synthetic population sampled from published facial norms; "
@@ -17,12 +18,12 @@ ABOUT = ("Default model: learned from a synthetic population sampled from publis
 
 def morph_object(context):
     obj = context.active_object
-    return obj if obj is not None and obj.get("fh_morph") else None
+    return obj if obj is not None and obj.get(MORPH_MARKER) else None
 
 
 def _state(obj) -> dict:
     try:
-        return json.loads(obj.get("fh_morph_state", "{}"))
+        return json.loads(obj.get(MORPH_STATE, "{}"))
     except ValueError:
         return {}
 
@@ -30,7 +31,7 @@ def _state(obj) -> dict:
 def examples_shown(obj, settings) -> list[tuple[int, str]]:
     """Database examples that pass the sex / age group / population filters (5.1.1)."""
     try:
-        examples = json.loads(obj.get("fh_morph_examples", "[]"))
+        examples = json.loads(obj.get(MORPH_EXAMPLES, "[]"))
     except ValueError:
         return []
     return matching_examples(examples, settings.filter_sex, settings.filter_age, settings.filter_population)
@@ -186,7 +187,7 @@ class FH_PT_morph_constraints(SidebarPanel, bpy.types.Panel):
         row = box.row()
         row.label(text="History")
         row.operator("faces_hands.morph_undo_edit", text="", icon="LOOP_BACK")
-        for line in obj.get("fh_morph_history", "").splitlines()[-12:]:
+        for line in obj.get(MORPH_HISTORY, "").splitlines()[-12:]:
             box.label(text=line)
 
 

@@ -8,6 +8,7 @@ from ..faces_hands_addon.core.errors import UserError
 from ..faces_hands_addon.emotion.disk import strongest_controls
 from . import emotion_picker as picker
 from .base import ROOT, SidebarPanel
+from ..names import MOUTH_CUES, TAKE_LAYERS
 
 
 class FH_PT_speech(SidebarPanel, bpy.types.Panel):
@@ -48,12 +49,12 @@ class FH_PT_speech(SidebarPanel, bpy.types.Panel):
         row = box.row(align=True)
         row.operator("faces_hands.animate_speech", text="From Text", icon="TEXT").source = "TEXT"
         row.operator("faces_hands.animate_speech", text="From Audio", icon="SOUND").source = "AUDIO"
-        if obj is not None and obj.get("fh_take_layers"):
+        if obj is not None and obj.get(TAKE_LAYERS):
             row = box.row(align=True)
-            for layer in ["speech", *str(obj["fh_take_layers"]).split()]:
+            for layer in ["speech", *str(obj[TAKE_LAYERS]).split()]:
                 row.operator("faces_hands.mute_speech_layer", text=layer.capitalize(),
                              icon="HIDE_OFF").layer = layer.capitalize()
-        if obj is not None and obj.get("fh_mouth_cues"):
+        if obj is not None and obj.get(MOUTH_CUES):
             layout.operator("faces_hands.export_mouth_cues", icon="EXPORT")
 
 

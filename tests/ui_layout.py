@@ -149,3 +149,23 @@ class CheckedLayout:
         if fixed is not None and fixed.identifier == "UILayout":
             return CheckedLayout(self._bpy, self.log)
         return None
+
+
+def panel_host(cls, layout):
+    """What a panel's or menu's ``draw`` gets as ``self``: ``layout`` and the class's own attributes and methods
+    (those the extension defines: a RigControlsPanel's ``rig_kind``, ...), bound to it."""
+    import types
+    host = types.SimpleNamespace(layout=layout)
+    for klass in reversed(cls.__mro__):
+        if not klass.__module__.startswith(cls.__module__.split(".")[0]) or klass.__module__.startswith("bpy"):
+            continue
+        for name, value in vars(klass).items():
+            if name.startswith("__"):
+                continue
+            if isinstance(value, (staticmethod, classmethod)):
+                value = value.__get__(host, cls)
+            elif isinstance(value, types.FunctionType):
+                value = types.MethodType(value, host)
+            setattr(host, name, value)
+    host.layout = layout
+    return host

@@ -83,20 +83,37 @@ def _fit(matrix: np.ndarray, frames: np.ndarray) -> np.ndarray:
 
 
 def semantic_weights(table: LayerTable, targets: Mapping[str, Mapping[str, float]],
-                     specs: Mapping[str, ControlSpec]) -> np.ndarray:
+                     specs: Mapping[str, ControlSpec], owned_rows: Mapping[int, frozenset] | None = None
+                     ) -> np.ndarray:
     """(F, T) semantic weights in [0, 1] of ``targets`` (name -> control values) for every frame of
     ``table``: visemes from the speech layer, the other targets from the other layers (module docstring).
-    Without visemes among the targets, all targets explain all layers."""
+    Without visemes among the targets, all targets explain all layers.
+
+    ``owned_rows`` (row -> the controls speech owns there: a lip closure or the labiodental contact,
+    ``anim.take.Take.owned_rows``): on those rows the other layers are explained by the targets that leave
+    every owned control alone, on the controls speech does not own. In an engine the targets add, so an
+    emotion target that also opens the jaw (``surprise``) would part the closed lips of a /p/."""
     names = list(targets)
     matrix = control_matrix(targets, specs, table.controls)
     speech, other = _layer_offsets(table, specs)
     visemes = np.array([is_viseme(n) for n in names], bool)
     weights = np.zeros((len(table), len(names)))
-    if visemes.any() and (~visemes).any():
-        weights[:, visemes] = _fit(matrix[visemes], speech)
-        weights[:, ~visemes] = _fit(matrix[~visemes], other)
-    else:
+    if not (visemes.any() and (~visemes).any()):
         weights[:] = _fit(matrix, speech + other)
+        return weights
+    weights[:, visemes] = _fit(matrix[visemes], speech)
+    weights[:, ~visemes] = _fit(matrix[~visemes], other)
+    groups: dict[frozenset, list[int]] = {}
+    for row, owned in (owned_rows or {}).items():
+        groups.setdefault(frozenset(owned), []).append(int(row))
+    for owned, rows in sorted(groups.items(), key=lambda item: sorted(item[0])):
+        columns = np.array([c in owned for c in table.controls], bool)
+        if not columns.any():
+            continue
+        rows = np.array(sorted(rows), np.int64)
+        free = ~visemes & (np.abs(matrix[:, columns]).max(axis=1) < 1e-9)
+        weights[np.ix_(rows, ~visemes)] = 0.0
+        weights[np.ix_(rows, free)] = _fit(matrix[free][:, ~columns], other[rows][:, ~columns])
     return weights
 
 

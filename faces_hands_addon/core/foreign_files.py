@@ -16,7 +16,7 @@ file's real length:
 * STL: a binary file's triangle count matches its length, an ASCII file starts with ``solid``;
 * OBJ: text without NUL bytes.
 
-What passes still goes to the importer in a child process with a memory limit (``operators.common.
+What passes still goes to the importer in a child process with a memory limit (``operators.adapters.
 foreign_import``): these checks bound what a file claims, the child bounds what the importer does with it.
 """
 from __future__ import annotations

@@ -320,10 +320,11 @@ class MuscleSystem:
 
     # -- per frame -------------------------------------------------------------------------------
     def deform(self, contraction: np.ndarray, protrusion: float, jaw: np.ndarray) -> MuscleState:
-        """Deformed control points for muscle ``contraction`` (per muscle, [0, 1]), orbicularis oris
-        ``protrusion`` ([-1, 1]) and the jaw pose (4x4)."""
-        contraction = np.clip(np.asarray(contraction, np.float64), 0.0, 1.0)
-        protrusion = float(np.clip(protrusion, -1.0, 1.0))
+        """Deformed control points for muscle ``contraction`` (per muscle, in [0, 1]), orbicularis oris
+        ``protrusion`` (in [-1, 1]) and the jaw pose (4x4). The values come from the rig's controls, clamped
+        once where they enter it (``anim.layers.mix``, ``FaceRig.set_controls``)."""
+        contraction = np.asarray(contraction, np.float64)
+        protrusion = float(protrusion)
         if kernel.loaded() and (compiled := kernel.compiled(muscle_kernel.deform_points, *muscle_kernel.HELPERS)):
             surface, carried, thickness = np.empty_like(self.rest), np.empty_like(self.rest), np.empty(len(self.rest))
             compiled(contraction, protrusion, np.ascontiguousarray(jaw[:3, :3], np.float64),

@@ -138,14 +138,14 @@ class FaceRig:
 
     def step(self, layer_values: LayerValues, dt: float) -> Pose:
         """Mix the control layers (thesis 4.3.5), advance one frame of ``dt`` seconds, return the pose."""
-        self.set_controls(mix(layer_values, self.specs))
+        self.controls = mix(layer_values, self.specs)        # checked and clamped there, once
         positions = self.step_frame(dt)            # a fresh array: the pose owns it (no second copy)
         return Pose({"skin": positions}, self.rigid_transforms())
 
     def settled(self, layer_values: LayerValues, max_time: float = 1.5, dt: float = 1 / 24) -> Pose:
         """The pose the face settles into from rest with the mixed ``layer_values``."""
         self.reset()
-        self.set_controls(mix(layer_values, self.specs))
+        self.controls = mix(layer_values, self.specs)
         self.relax(max_time=max_time, dt=dt)
         return self.pose()
 

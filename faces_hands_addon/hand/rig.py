@@ -153,7 +153,7 @@ class HandRig:
         """The pose the hand settles into from rest with the mixed ``layer_values``; each contraction set of
         ``then`` is set once the hand has settled before it, and it settles again (up to ``max_time`` each)."""
         self.reset()
-        self.set_controls(mix(layer_values, self.specs))
+        self.controls = mix(layer_values, self.specs)        # checked and clamped there, once
         self.relax(max_time, dt)
         for values in then:
             self.set_controls(values)

@@ -35,7 +35,7 @@ A target name without ``_L``/``_R`` sets both sides.
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -83,9 +83,14 @@ class TargetSet:
     release_targets: np.ndarray | None  # (P,) or None for "the next segment's targets"
     release: Dominance
     source: str
+    class_of: dict[str, str] = field(default_factory=dict)   # phone -> the preset class it belongs to
 
     def phase(self, phone: str) -> str:
         return self.phase_of.get(phone, "normal")
+
+    @property
+    def class_names(self) -> tuple[str, ...]:
+        return tuple(dict.fromkeys(self.class_of.values()))
 
 
 def _fail(source: str, message: str):
@@ -318,7 +323,8 @@ def compile_target_set(data: dict, source: str = "preset") -> TargetSet:
                      peak_at_start=np.array([compiled[class_of[p]][2] for p in rows]),
                      alpha_at_edges=np.array([compiled[class_of[p]][3] for p in rows]),
                      phase_of=phase_of, closure_fraction=closure_fraction,
-                     release_targets=release_vector, release=release, source=source)
+                     release_targets=release_vector, release=release, source=source,
+                     class_of={p: class_of[p] for p in rows})
 
 
 def load_target_set(path: str | os.PathLike) -> TargetSet:

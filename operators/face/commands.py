@@ -7,10 +7,10 @@ from pathlib import Path
 import bpy
 
 from ...faces_hands_addon.core.errors import UserError
-from ..common.blendfile import save_blend
-from ..common.export import save_or_export
-from ..common.outputs import atomic_output, check_output_path, written
-from ..common.rig_store import get_rig
+from ..adapters.blendfile import save_blend
+from ..adapters.outputs import atomic_output, check_output_path, written
+from ..adapters.rig_store import get_rig
+from ..cli.rig_command import RigCommand
 from . import services, sheet
 from .objects import EXPORT_ROLES
 
@@ -59,14 +59,18 @@ class BuildFace:
         return 0
 
 
-class Bake:
-    INPUTS = ("blend",)
+class _FaceCommand(RigCommand):
+    BLEND_HELP = "a .blend with a face rig (default: build the default head)"
+    EXPORT_ROLES = EXPORT_ROLES
+    open_rig = staticmethod(services.rig_object)
+
+
+class Bake(_FaceCommand):
     NAME = "bake"
     HELP = "bake a face rig to shape keys (basis | expressions | animation) and save .glb, .fbx or .blend"
 
-    @staticmethod
-    def add_arguments(parser):
-        parser.add_argument("--blend", help="a .blend with a face rig (default: build the default head)")
+    @classmethod
+    def add_options(cls, parser):
         parser.add_argument("--mode", choices=("basis", "expressions", "animation"), required=True)
         parser.add_argument("--preset", default="all", choices=(*services.EXPRESSION_SETS, "all"),
                             help="expression set for --mode expressions, and the targets an animation is "
@@ -74,52 +78,45 @@ class Bake:
         parser.add_argument("--animation", default="weights", choices=services.ANIMATION_KINDS,
                             help="--mode animation as engine-ready weights of fixed targets (default) or as the "
                                  "exact per-frame cache (frames: one shape key per frame, for offline renders)")
-        parser.add_argument("--rig", help="name of the rig object when the file has several")
-        parser.add_argument("--out", required=True, help="output .glb, .fbx or .blend")
 
-    @staticmethod
-    def run(args, progress) -> int:
-        out = check_output_path(args.out, (".glb", ".fbx", ".blend"))
-        rig = services.rig_object(args.blend, args.rig, progress)
-        print(services.bake(bpy.context, rig, args.mode, args.preset, progress, args.animation))
-        save_or_export(bpy.context, rig, out, EXPORT_ROLES)
-        print(written([out]))
-        return 0
+    @classmethod
+    def work(cls, args, obj, out, progress) -> str:
+        return services.bake(bpy.context, obj, args.mode, args.preset, progress, args.animation)
 
 
-class Render:
-    INPUTS = ("blend",)
+class Render(_FaceCommand):
     NAME = "render"
     HELP = "render a labelled contact sheet of a face rig (neutral, muscles, jaw, ARKit, visemes)"
+    OUTPUTS = (".png",)
 
-    @staticmethod
-    def add_arguments(parser):
-        parser.add_argument("--blend", help="a .blend with a face rig (default: the default head)")
+    @classmethod
+    def add_options(cls, parser):
         parser.add_argument("--sheet", choices=("expressions", "muscles"), default="expressions",
                             help="expressions: neutral, muscles, direct parameters, ARKit and visemes; "
                                  "muscles: neutral, muscles and direct parameters only")
         parser.add_argument("--cells", help="comma-separated cells to render, in this order (default: the whole "
                                              "sheet), e.g. neutral,jaw_open,viseme_PP,eyeBlinkLeft")
-        parser.add_argument("--rig", help="name of the rig object when the file has several")
         parser.add_argument("--columns", type=int, default=10)
         parser.add_argument("--view", choices=tuple(sheet.VIEWS), default="front",
                             help="camera: front (default), three-quarter or side")
-        parser.add_argument("--out", required=True, help="output .png")
 
-    @staticmethod
-    def run(args, progress) -> int:
-        out = check_output_path(args.out, (".png",))
+    @classmethod
+    def check(cls, args) -> None:
         if not 1 <= args.columns <= 50:
             raise UserError("--columns must be between 1 and 50")
-        rig_obj = services.rig_object(args.blend, args.rig, progress)
+
+    @classmethod
+    def work(cls, args, obj, out, progress) -> str:
+        return ""
+
+    @classmethod
+    def write(cls, args, obj, out, progress) -> None:
         include = ("neutral", "muscles", "direct") + (("arkit", "visemes") if args.sheet == "expressions" else ())
-        cells = _chosen(sheet.expression_cells(get_rig(rig_obj)), args.cells) if args.cells else \
-            sheet.expression_cells(get_rig(rig_obj), include)
+        cells = _chosen(sheet.expression_cells(get_rig(obj)), args.cells) if args.cells else \
+            sheet.expression_cells(get_rig(obj), include)
         with atomic_output(out) as tmp:
-            sheet.render_sheet(bpy.context, rig_obj, cells, tmp, columns=args.columns, progress=progress,
+            sheet.render_sheet(bpy.context, obj, cells, tmp, columns=args.columns, progress=progress,
                                view=args.view)
-        print(written([out]))
-        return 0
 
 
 def _chosen(cells, names: str) -> list:

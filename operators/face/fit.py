@@ -18,11 +18,12 @@ import numpy as np
 from mathutils import Matrix
 
 from ...faces_hands_addon.core.errors import UserError
-from ..common.foreign_import import import_foreign
-from ..common.meshes import mesh_triangles, mesh_vertices
-from ..common.outputs import atomic_output, same_file
-from ..common.rig_store import OUTPUT_TO_LOCAL, PART_ROLE, parts
+from ..adapters.foreign_import import import_foreign
+from ..adapters.meshes import mesh_triangles, mesh_vertices
+from ..adapters.outputs import atomic_output, same_file
+from ..adapters.rig_store import OUTPUT_TO_LOCAL, PART_ROLE, parts
 from .objects import create_rig_objects
+from ...names import RIG_WARNINGS
 
 LANDMARKS_ROLE = "landmarks"
 
@@ -152,13 +153,13 @@ def attach_rig(context, head, rig, world_matrix: np.ndarray, name: str | None = 
         part.matrix_parent_inverse = Matrix(to_local.tolist())
     warnings = list(getattr(rig, "warnings", []) or [])
     if warnings:
-        obj["fh_rig_warnings"] = json.dumps(warnings)
+        obj[RIG_WARNINGS] = json.dumps(warnings)
     return obj
 
 
 def import_meshes(path: str, what: str = "the mesh file") -> list:
     """Import a mesh file with Blender's own importer (default axis conversion), checked and run in a child
-    process (``common.foreign_import``); returns the new meshes."""
+    process (``adapters.foreign_import``); returns the new meshes."""
     meshes = [o for o in import_foreign(path, what).objects if o.type == "MESH"]
     if not meshes:
         raise UserError(f"{path} contains no mesh")

@@ -5,9 +5,9 @@ from __future__ import annotations
 import bpy
 
 from ...faces_hands_addon.core.errors import UserError
-from ..common.jobs import Job
-from ..common.modal import JobOperator
-from ..common.rig_store import PART_ROLE, is_rig
+from ..bases.jobs import Job
+from ..bases.modal import JobOperator
+from ..adapters.rig_store import PART_ROLE, is_rig
 from .fit import AXIS_ITEMS, LANDMARKS_ROLE
 from .jobs import FitRigJob, LocateJob
 

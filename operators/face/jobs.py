@@ -1,12 +1,12 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""The face's long work as jobs (``common.jobs``): build the default head, locate landmarks on an artist's
+"""The face's long work as jobs (``bases.jobs``): build the default head, locate landmarks on an artist's
 mesh, fit a rig to it. Each computes in ``step`` and writes Blender data only in ``commit``."""
 from __future__ import annotations
 
 import bpy
 import numpy as np
 
-from ..common.jobs import Job
+from ..bases.jobs import Job
 from . import fit
 from .objects import create_rig_objects, set_wrinkle_drivers
 

@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Face rigs as Blender objects: one collection holding the skin object (the rig object: controls and
-engine state, ``common.rig_store``) and, parented to it, skull, jaw, eyes, teeth, tongue and a muscle-fibre
+engine state, ``adapters.rig_store``) and, parented to it, skull, jaw, eyes, teeth, tongue and a muscle-fibre
 display coloured by contraction; materials; the wrinkle shading.
 """
 from __future__ import annotations
@@ -8,10 +8,10 @@ from __future__ import annotations
 import bpy
 import numpy as np
 
-from ..common import controls
-from ..common.materials import enable_nodes
-from ..common.meshes import mesh_from_arrays
-from ..common.rig_store import PART_ROLE, parts, store_rig
+from ..adapters import controls
+from ..adapters.materials import enable_nodes
+from ..adapters.meshes import mesh_from_arrays
+from ..adapters.rig_store import PART_ROLE, parts, store_rig
 from ...faces_hands_addon.face.appearance import skin_colours
 
 __all__ = ["EXPORT_ROLES", "create_rig_objects", "update_muscle_display", "set_wrinkle_drivers",

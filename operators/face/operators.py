@@ -5,13 +5,13 @@ from __future__ import annotations
 import bpy
 
 from ...faces_hands_addon.core.errors import UserError
-from ..common import controls
-from ..common.file_operators import ExportRigOperator
-from ..common.hardened import HardenedOperator
-from ..common.jobs import Job
-from ..common.live import LiveSimulationOperator, live_object
-from ..common.modal import JobOperator
-from ..common.rig_store import get_rig, rig_of
+from ..adapters import controls
+from ..bases.file_operators import ExportRigOperator
+from ..bases.hardened import HardenedOperator
+from ..bases.jobs import Job
+from ..bases.live import LiveSimulationOperator, live_object
+from ..bases.modal import JobOperator
+from ..adapters.rig_store import get_rig, rig_of
 from . import services
 from .jobs import BuildDefaultRigJob
 from .objects import update_muscle_display

@@ -9,11 +9,11 @@ import bpy
 import numpy as np
 
 from ...faces_hands_addon.core.errors import UserError
-from ..common import bake as common_bake
-from ..common.blendfile import open_blend
-from ..common.export import ExportOptions, export_rig, save_or_export
-from ..common.jobs import run_job
-from ..common.rig_store import find_rig
+from ..bases import bake as common_bake
+from ..adapters.blendfile import open_blend
+from ..adapters.export import ExportOptions, export_rig, save_or_export
+from ..bases.jobs import run_job
+from ..adapters.rig_store import find_rig
 from .fit import attach_rig, import_head, import_meshes
 from .jobs import BuildDefaultRigJob, FitRigJob
 from .objects import EXPORT_ROLES
@@ -67,23 +67,26 @@ CUE_FILES = (".tsv", ".txt", ".json")
 CUE_FPS = 30.0
 
 
-def bake_job(context, obj, mode: str, preset: str = "all", animation: str = "weights"):
+def bake_job(context, obj, mode: str, preset: str = "all", animation: str = "weights", take=None):
     """The bake of ``mode`` (basis | expressions | animation). An animation is baked as engine-ready
     ``weights`` of the fixed target set (ARKit + visemes + emotions, whatever ``preset`` names), or as the
-    exact per-frame cache (``frames``: one key per frame, for offline renders)."""
+    exact per-frame cache (``frames``: one key per frame, for offline renders). ``take`` = (engine take,
+    start frame) bakes that take (the command line); without it, the take the rig object holds."""
     mode = mode.upper()
     if mode not in common_bake.MODES:
         raise UserError(f"unknown bake mode {mode.lower()!r}; use basis, expressions or animation")
     if animation not in ANIMATION_KINDS:
         raise UserError(f"unknown animation bake {animation!r}; use weights or frames")
     if mode == "ANIMATION" and animation == "weights":
-        return common_bake.WeightsBakeJob(context, obj, expressions(preset), EXPORT_ROLES)
-    return common_bake.BakeJob(context, obj, mode, expressions(preset) if mode != "BASIS" else None)
+        return common_bake.WeightsBakeJob.of_object(context, obj, expressions(preset), EXPORT_ROLES, take=take)
+    inputs = common_bake.bake_inputs(context, obj, take, animated=mode == "ANIMATION")
+    return common_bake.BakeJob(inputs, mode, expressions(preset) if mode != "BASIS" else None)
 
 
-def bake(context, obj, mode: str, preset: str = "all", progress=None, animation: str = "weights") -> str:
+def bake(context, obj, mode: str, preset: str = "all", progress=None, animation: str = "weights",
+         take=None) -> str:
     """Bake the face rig object ``obj`` (basis | expressions | animation) to the end; returns the report."""
-    return run_job(bake_job(context, obj, mode, preset, animation), context, progress)
+    return run_job(bake_job(context, obj, mode, preset, animation, take), context, progress)
 
 
 def export(context, obj, path: str, options: ExportOptions = ExportOptions()):
@@ -97,9 +100,9 @@ def _take_weights(args, progress):
     cues (each shape's viseme held until the next cue). A file's take plays at ``--fps`` or, by default, at
     its own rate (the steps between its rows or keys; 30 for cues)."""
     from ...faces_hands_addon.anim.retarget import read_live_link_csv, take_rate
-    from ..common.foreign_import import import_foreign
-    from ..common.targets import animated_weights, keyed_weights
-    from ..common.timing import scene_fps
+    from ..adapters.foreign_import import import_foreign
+    from ..adapters.targets import animated_weights, keyed_weights
+    from ..adapters.timing import scene_fps
     for option in ("fps", "csv_fps"):
         value = getattr(args, option, None)
         if value is not None and not 1.0 <= value <= 240.0:          # NaN fails too
@@ -141,8 +144,8 @@ def _character(args):
 
 def retarget(args, out, progress=None) -> str:
     """CLI ``retarget``: the take of ``args.source`` onto the character of ``args.character``, saved to ``out``."""
-    from ..common.targets import transfer_weights
-    from ..common.timing import set_scene_fps
+    from ..adapters.targets import transfer_weights
+    from ..adapters.timing import set_scene_fps
     frames, weights, fps = _take_weights(args, progress)
     character = _character(args)
     scene = bpy.context.scene

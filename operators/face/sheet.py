@@ -16,10 +16,10 @@ from typing import Callable
 import bpy
 import numpy as np
 
-from ...faces_hands_addon.anim.layers import BASE_LAYER
-from ..common import render
-from ..common.poses import push_pose
-from ..common.rig_store import get_rig, parts, to_world
+from ...faces_hands_addon.anim.layers import BASE_LAYER, LAYERS
+from ..adapters import render
+from ..adapters.poses import push_pose
+from ..adapters.rig_store import get_rig, parts, to_world
 from .objects import update_muscle_display
 
 Cell = tuple[str, dict]
@@ -50,10 +50,14 @@ def expression_cells(rig, include=("neutral", "muscles", "direct", "arkit", "vis
     return cells
 
 
-def rig_controls(rig, controls: dict) -> dict:
-    """A cell's control values checked against the rig (unknown names refused, values clamped)."""
-    from ...faces_hands_addon.core.controls import clamp_controls
-    return clamp_controls(controls, rig.control_specs(), strict=True)
+def cell_layers(controls: dict) -> tuple[dict, dict]:
+    """(layer values, head pose) of a cell: a plain control dict is the artist's layer (with ``head.*``
+    keys for the head); a take's cell names its layers (``speech``, ``behavior``, ``emotion``) and ``head``.
+    The rig mixes the layers (``anim.layers.mix``: unknown names refused, values clamped once, there)."""
+    if controls and all((k in LAYERS or k == "head") and isinstance(v, dict) for k, v in controls.items()):
+        return {k: dict(v) for k, v in controls.items() if k in LAYERS}, dict(controls.get("head", {}))
+    return ({BASE_LAYER: {k: v for k, v in controls.items() if "." not in k}},
+            {k: v for k, v in controls.items() if "." in k})
 
 
 def _show(obj, rig, pose) -> None:
@@ -110,10 +114,10 @@ def render_sheet(context, obj, cells: list[Cell], out_path, cell_size=(220, 250)
         for index, (name, controls) in enumerate(cells):
             if progress:
                 progress(index / max(len(cells), 1), f"rendering {name}")
-            face = {k: v for k, v in controls.items() if "." not in k}
-            _show(obj, rig, rig.settled({BASE_LAYER: rig_controls(rig, face)}, settle_time))
+            layers, head = cell_layers(controls)
+            _show(obj, rig, rig.settled(layers, settle_time))
             if pose_cell is not None:
-                pose_cell(obj, controls)
+                pose_cell(obj, head)
             label.data.body = name
             tile = tmp_dir / f"cell_{index:04d}.png"
             render.render_objects(scene, visible + [label], tile, size=cell_size, reframe=False)

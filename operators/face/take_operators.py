@@ -6,10 +6,10 @@ from __future__ import annotations
 import bpy
 
 from ...faces_hands_addon.core.errors import UserError
-from ..common import targets
-from ..common.file_operators import SaveFileOperator
-from ..common.hardened import HardenedOperator
-from ..common.rig_store import rig_of
+from ..adapters import targets
+from ..bases.file_operators import SaveFileOperator
+from ..bases.hardened import HardenedOperator
+from ..adapters.rig_store import rig_of
 
 
 def _source_rig(context):

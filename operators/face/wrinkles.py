@@ -13,8 +13,8 @@ import bpy
 import numpy as np
 
 from ...faces_hands_addon.anim.layers import weighted_driver
-from ..common import controls
-from ..common.materials import enable_nodes
+from ..adapters import controls
+from ..adapters.materials import enable_nodes
 
 #: region -> (wave direction in object space, furrow spacing in metres, bump strength at full contraction)
 PATTERNS = {"forehead": ("Z", 0.03, 1.4), "brow_furrow": ("X", 0.014, 0.8), "nose_bridge": ("Z", 0.01, 0.5)}

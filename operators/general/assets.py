@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import bpy
 
-from ..common.meshes import mesh_from_arrays, object_from_mesh
+from ..adapters.meshes import mesh_from_arrays, object_from_mesh
 
 
 def add_default_head_assets(scene: bpy.types.Scene) -> bpy.types.Collection:

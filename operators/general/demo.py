@@ -22,9 +22,9 @@ from pathlib import Path
 import bpy
 
 from ...faces_hands_addon.meshio import glb_document
-from ..common.blendfile import save_blend
-from ..common.outputs import atomic_output, check_output_dir, written
-from ..common.rig_store import get_rig
+from ..adapters.blendfile import save_blend
+from ..adapters.outputs import atomic_output, check_output_dir, written
+from ..adapters.rig_store import get_rig
 from ..face import services as face, sheet
 from ..hand import services as hand
 from ..morph import services as morph, sheet as morph_sheet

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import bpy
 
-from ..common.hardened import HardenedOperator
-from ..common.paths import clear_shape_cache, copy_presets
+from ..bases.hardened import HardenedOperator
+from ..adapters.paths import clear_shape_cache, copy_presets
 from . import assets
 
 

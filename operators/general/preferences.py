@@ -1,11 +1,11 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """The add-on preferences page (Edit > Preferences > Add-ons > Faces & Hands): default output folder,
-preset override folder, default voice, and the shape cache. ``operators.common.paths`` reads it."""
+preset override folder, default voice, and the shape cache. ``operators.adapters.paths`` reads it."""
 from __future__ import annotations
 
 import bpy
 
-from ..common.paths import configure_presets, shape_cache_summary, user_preset_folder
+from ..adapters.paths import configure_presets, shape_cache_summary, user_preset_folder
 
 ROOT_PACKAGE = __package__.rsplit(".", 2)[0]       # the extension's package (bl_ext.<repo>.faces_hands)
 

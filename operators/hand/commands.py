@@ -7,10 +7,10 @@ from pathlib import Path
 import bpy
 
 from ...faces_hands_addon.core.errors import UserError
-from ..common.blendfile import save_blend
-from ..common.export import save_or_export
-from ..common.outputs import atomic_output, check_output_path, written
-from ..common.rig_store import get_rig
+from ..adapters.blendfile import save_blend
+from ..adapters.outputs import atomic_output, check_output_path, written
+from ..adapters.rig_store import get_rig
+from ..cli.rig_command import RigCommand
 from . import services, sheet
 from .objects import EXPORT_ROLES
 
@@ -47,46 +47,43 @@ class BuildHand:
         return 0
 
 
-class AnimateHand:
-    INPUTS = ("blend",)
+class _HandCommand(RigCommand):
+    BLEND_HELP = "a .blend with a hand rig (default: build the reference hand)"
+    EXPORT_ROLES = EXPORT_ROLES
+    open_rig = staticmethod(services.hand_object)
+
+
+class AnimateHand(_HandCommand):
     NAME = "animate-hand"
     HELP = "animate a hand rig with a preset pose or motion, bake it and export .glb, .fbx or .blend"
 
-    @staticmethod
-    def add_arguments(parser):
-        parser.add_argument("--blend", help="a .blend with a hand rig (default: build the reference hand)")
+    @classmethod
+    def add_options(cls, parser):
         parser.add_argument("--preset", required=True, help="a motion or pose of presets/hand/poses.json")
-        parser.add_argument("--rig", help="name of the rig object when the file has several")
         parser.add_argument("--fps", type=float, default=30.0, help="frame rate of the animation (default 30)")
-        parser.add_argument("--out", required=True, help="output .glb, .fbx or .blend")
 
-    @staticmethod
-    def run(args, progress) -> int:
-        out = check_output_path(args.out, (".glb", ".fbx", ".blend"))
-        if args.blend and Path(args.blend).resolve() == out.resolve():
-            raise UserError("the output must not overwrite the input .blend")
+    @classmethod
+    def check(cls, args) -> None:
         if not 1.0 <= args.fps <= 240.0:
             raise UserError("--fps must be between 1 and 240")
-        obj = services.hand_object(args.blend, args.rig, progress)
+
+    @classmethod
+    def work(cls, args, obj, out, progress) -> str:
         scene = bpy.context.scene
         scene.render.fps, scene.render.fps_base = int(round(args.fps)), round(args.fps) / args.fps
         first, last = services.animate(bpy.context, obj, args.preset)
         print(f"keyed {args.preset!r} on frames {first}-{last}")
-        print(services.bake(bpy.context, obj, progress))
-        save_or_export(bpy.context, obj, out, EXPORT_ROLES)
-        print(written([out]))
-        return 0
+        return services.bake(bpy.context, obj, progress)
 
 
-class RenderHand:
-    INPUTS = ("blend",)
+class RenderHand(_HandCommand):
     NAME = "render-hand"
     HELP = "render a labelled contact sheet of a hand rig in preset poses"
+    OUTPUTS = (".png",)
+    BLEND_HELP = "a .blend with a hand rig (default: the reference hand)"
 
-    @staticmethod
-    def add_arguments(parser):
-        parser.add_argument("--blend", help="a .blend with a hand rig (default: the reference hand)")
-        parser.add_argument("--rig", help="name of the rig object when the file has several")
+    @classmethod
+    def add_options(cls, parser):
         parser.add_argument("--sheet", choices=("poses", "bulges"), default="poses",
                             help="poses: preset poses simulated; bulges: each geometric muscle contracted, joints held")
         parser.add_argument("--poses", help="comma-separated pose names (default: every preset pose)")
@@ -98,29 +95,37 @@ class RenderHand:
                             help="rest: every cell framed on the hand at rest; pose: each cell on its own pose")
         parser.add_argument("--shading", choices=("studio", "shape"), default="studio",
                             help="studio light, or a matcap that shows surface shape (muscle bulges)")
-        parser.add_argument("--out", required=True, help="output .png")
 
     @staticmethod
-    def run(args, progress) -> int:
-        out = check_output_path(args.out, (".png",))
-        if not 1 <= args.columns <= 20:
-            raise UserError("--columns must be between 1 and 20")
+    def _cell_size(args) -> tuple[int, int]:
         try:
             cell_size = tuple(int(v) for v in args.cell_size.lower().split("x"))
         except ValueError:
             cell_size = ()
         if len(cell_size) != 2 or not all(64 <= v <= 4096 for v in cell_size):
             raise UserError("--cell-size must be WIDTHxHEIGHT, each 64-4096 pixels (e.g. 720x900)")
-        obj = services.hand_object(args.blend, args.rig, progress)
+        return cell_size
+
+    @classmethod
+    def check(cls, args) -> None:
+        if not 1 <= args.columns <= 20:
+            raise UserError("--columns must be between 1 and 20")
+        cls._cell_size(args)
+
+    @classmethod
+    def work(cls, args, obj, out, progress) -> str:
+        return ""
+
+    @classmethod
+    def write(cls, args, obj, out, progress) -> None:
         names = [n.strip() for n in args.poses.split(",")] if args.poses else None
         rig = get_rig(obj, "hand")
         cells = sheet.bulge_cells(rig) if args.sheet == "bulges" else sheet.pose_cells(rig, names)
         with atomic_output(out) as tmp:
-            sheet.render_hand_sheet(bpy.context, obj, cells, tmp, args.view, args.columns, cell_size=cell_size,
-                                    progress=progress, show_bones=args.bones, framing=args.frame,
+            sheet.render_hand_sheet(bpy.context, obj, cells, tmp, args.view, args.columns,
+                                    cell_size=cls._cell_size(args), progress=progress, show_bones=args.bones,
+                                    framing=args.frame,
                                     matcap=sheet.SHAPE_MATCAP if args.shading == "shape" else None)
-        print(written([out]))
-        return 0
 
 
 COMMANDS = [BuildHand, AnimateHand, RenderHand]

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""The hand's long work as jobs (``common.jobs``): build a hand (reference or from a photo) and bake it
+"""The hand's long work as jobs (``bases.jobs``): build a hand (reference or from a photo) and bake it
 (bone rotations to an Action, corrective shape keys and their weights). Each computes in ``step`` without
 touching the scene and writes Blender data only in ``commit``, so cancelling leaves the scene as it was."""
 from __future__ import annotations
@@ -11,10 +11,11 @@ from mathutils import Matrix
 from ...faces_hands_addon.anim.layers import mix
 from ...faces_hands_addon.core.errors import UserError
 from ...faces_hands_addon.hand import bake as hand_bake
-from ..common import controls, fcurves, shape_keys
-from ..common.jobs import Job
-from ..common.rig_store import get_rig
-from ..common.timing import frame_duration
+from ..adapters import fcurves, shape_keys
+from ..bases.jobs import Job
+from ..adapters.rig_store import get_rig
+from ..adapters.takes import take_for_bake
+from ..adapters.timing import frame_duration, scene_fps
 from .objects import EULER_ORDER, armature_of, create_hand_objects, rest_bone_matrices
 
 __all__ = ["BuildHandJob", "BakeHandJob", "MAX_FRAMES", "ACTION_NAME", "write_indexed_curves"]
@@ -60,7 +61,8 @@ class BakeHandJob(Job):
         frames = shape_keys.frame_range(context.scene)
         if len(frames) > MAX_FRAMES:
             raise UserError(f"{len(frames)} frames is too long for one bake; bake at most {MAX_FRAMES} frames")
-        table = controls.sample_layers(obj, context.scene, specs, frames)
+        take, start = take_for_bake(obj, context.scene, specs)
+        table = take.table(specs, frames, scene_fps(context.scene), start)
         self.frames = list(frames)
         self.contractions = np.array([[mix(table.at(i), specs)[m] for m in self.rig.muscle_names]
                                       for i in range(len(frames))])

@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Hand rigs as Blender objects (thesis 6.2.1): one collection holding the skin (the rig object: controls and
-engine state, ``common.rig_store``), parented to it an armature whose bones are named like the WebXR hand
+engine state, ``adapters.rig_store``), parented to it an armature whose bones are named like the WebXR hand
 joints and carry the 29 bone meshes, with Limit Rotation constraints from Table 6.4, and a display of the
 geometric muscles. The skin is deformed by the armature (linear blend skinning with the asset's weights);
 the live simulation writes the rest-space skin that skinning turns into the simulated one.
@@ -16,12 +16,12 @@ import numpy as np
 from mathutils import Matrix
 
 from ...faces_hands_addon.hand.bake import bone_basis, unskinned
-from ..common import controls
-from ..common.armature import build_armature, deform_with, set_vertex_groups
-from ..common.materials import enable_nodes
-from ..common.meshes import mesh_from_arrays
-from ..common.poses import simulation_key
-from ..common.rig_store import PART_ROLE, parts, store_rig
+from ..adapters import controls
+from ..adapters.armature import build_armature, deform_with, set_vertex_groups
+from ..adapters.materials import enable_nodes
+from ..adapters.meshes import mesh_from_arrays
+from ..adapters.poses import simulation_key
+from ..adapters.rig_store import PART_ROLE, parts, store_rig
 
 __all__ = ["ARMATURE", "MUSCLES", "EXPORT_ROLES", "create_hand_objects", "armature_of", "rest_bone_matrices",
            "pose_armature", "push_hand_pose", "EULER_ORDER", "pose_bone_rotations", "set_corner_uvs"]

@@ -7,12 +7,12 @@ import bpy
 
 from ...faces_hands_addon.core.errors import UserError
 from ...faces_hands_addon.hand import motion
-from ..common.file_operators import ExportRigOperator
-from ..common.hardened import HardenedOperator
-from ..common.jobs import Job
-from ..common.live import LiveSimulationOperator, live_object
-from ..common.modal import JobOperator
-from ..common.rig_store import is_rig, rig_of
+from ..bases.file_operators import ExportRigOperator
+from ..bases.hardened import HardenedOperator
+from ..bases.jobs import Job
+from ..bases.live import LiveSimulationOperator, live_object
+from ..bases.modal import JobOperator
+from ..adapters.rig_store import is_rig, rig_of
 from . import photo_objects, services
 from .jobs import BakeHandJob, BuildHandJob
 from .objects import push_hand_pose

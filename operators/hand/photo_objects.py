@@ -14,11 +14,11 @@ import numpy as np
 from ...faces_hands_addon.core.errors import UserError
 from ...faces_hands_addon.hand.features import FEATURE_NAMES
 from ...faces_hands_addon.hand.photo import check_photo
+from ...names import HAND_PHOTO, PHOTO_IMAGE, PHOTO_IMAGE_SIZE, PHOTO_POINT, PHOTO_RULER_MM
 
 __all__ = ["PHOTO_MARKER", "POINT_MARKER", "load_photo", "photo_input", "find_photo"]
 
-PHOTO_MARKER = "fh_hand_photo"
-POINT_MARKER = "fh_photo_point"
+PHOTO_MARKER, POINT_MARKER = HAND_PHOTO, PHOTO_POINT
 RULER = ("ruler_start", "ruler_end")
 
 
@@ -50,9 +50,9 @@ def load_photo(context, filepath: str, ruler_mm: float):
     photo.empty_display_size = max(width, height) / 1000.0
     photo.rotation_euler = (math.pi / 2, 0.0, 0.0)
     photo[PHOTO_MARKER] = 1
-    photo["fh_image_size"] = [int(width), int(height)]
-    photo["fh_ruler_mm"] = float(ruler_mm)
-    photo["fh_image"] = str(path)
+    photo[PHOTO_IMAGE_SIZE] = [int(width), int(height)]
+    photo[PHOTO_RULER_MM] = float(ruler_mm)
+    photo[PHOTO_IMAGE] = str(path)
     context.scene.collection.objects.link(photo)
     for name, (u, v) in _layout(width, height).items():
         marker = bpy.data.objects.new(f"FH Point {name}", None)
@@ -80,7 +80,7 @@ def find_photo(context):
 def photo_input(context) -> dict:
     """The checked photo input (pixels) from the markers on the loaded photo."""
     photo = find_photo(context)
-    width, height = (int(v) for v in photo["fh_image_size"])
+    width, height = (int(v) for v in photo[PHOTO_IMAGE_SIZE])
     points, ruler = {}, {}
     for marker in photo.children:
         name = marker.get(POINT_MARKER)
@@ -92,12 +92,12 @@ def photo_input(context) -> dict:
     if set(ruler) != set(RULER):
         raise UserError("both ruler markers (ruler_start, ruler_end) are needed; undo their deletion")
     doc = {"points": points, "ruler": [ruler["ruler_start"], ruler["ruler_end"]],
-           "ruler_mm": float(photo.get("fh_ruler_mm", 200.0)), "image": str(photo.get("fh_image", ""))}
+           "ruler_mm": float(photo.get(PHOTO_RULER_MM, 200.0)), "image": str(photo.get(PHOTO_IMAGE, ""))}
     return check_photo(doc, f"the markers on '{photo.name}'")
 
 
 def marker_pixels(photo) -> dict[str, np.ndarray]:
     """Name -> pixel position of every marker (for tests and the panel)."""
-    width, height = (int(v) for v in photo["fh_image_size"])
+    width, height = (int(v) for v in photo[PHOTO_IMAGE_SIZE])
     return {m[POINT_MARKER]: np.array([m.location[0] * 1000.0 + width / 2, height / 2 - m.location[1] * 1000.0])
             for m in photo.children if m.get(POINT_MARKER)}

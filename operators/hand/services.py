@@ -11,13 +11,13 @@ from mathutils import Matrix
 from ...faces_hands_addon.anim.layers import BASE_LAYER
 from ...faces_hands_addon.core.errors import UserError
 from ...faces_hands_addon.hand import motion
-from ..common import controls, fcurves
-from ..common.blendfile import open_blend, save_blend
-from ..common.export import ExportOptions, export_rig
-from ..common.jobs import run_job
-from ..common.outputs import atomic_output
-from ..common.rig_store import find_rig, get_rig, store_rig
-from ..common.timing import scene_fps
+from ..adapters import controls, fcurves
+from ..adapters.blendfile import open_blend, save_blend
+from ..adapters.export import ExportOptions, export_rig
+from ..bases.jobs import run_job
+from ..adapters.outputs import atomic_output
+from ..adapters.rig_store import find_rig, get_rig, store_rig
+from ..adapters.timing import scene_fps
 from . import sheet
 from .jobs import BakeHandJob, BuildHandJob, write_indexed_curves
 from .objects import EXPORT_ROLES, armature_of, pose_bone_rotations

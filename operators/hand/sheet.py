@@ -17,9 +17,9 @@ import bpy
 import numpy as np
 
 from ...faces_hands_addon.hand import motion
-from ..common import render
-from ..common.poses import push_pose
-from ..common.rig_store import get_rig, parts, to_world
+from ..adapters import render
+from ..adapters.poses import push_pose
+from ..adapters.rig_store import get_rig, parts, to_world
 from .objects import ARMATURE, push_hand_pose
 
 __all__ = ["VIEWS", "GRIP_VIEWS", "SHAPE_MATCAP", "pose_cells", "bulge_cells", "render_hand_sheet", "view_azimuth",

@@ -10,8 +10,8 @@ from pathlib import Path
 import bpy
 
 from ...faces_hands_addon.core.errors import UserError
-from ..common.export import ExportOptions, save_or_export
-from ..common.outputs import atomic_output, check_output_path, written
+from ..adapters.export import ExportOptions, save_or_export
+from ..adapters.outputs import atomic_output, check_output_path, written
 from . import services, sheet
 
 

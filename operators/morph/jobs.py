@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""The morphable faces' long work as jobs (``common.jobs``): build a model from meshes (5.1.10) and hand a
+"""The morphable faces' long work as jobs (``bases.jobs``): build a model from meshes (5.1.10) and hand a
 face to the face-rig builder. Each computes in ``step`` and writes Blender data only in ``commit``."""
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ import bpy
 import numpy as np
 
 from ...faces_hands_addon.core.errors import UserError
-from ..common.jobs import Job
-from ..common.meshes import mesh_triangles, mesh_vertices
+from ..bases.jobs import Job
+from ..adapters.meshes import mesh_triangles, mesh_vertices
 from . import services
 
 __all__ = ["BuildModelJob", "MakeAnimatableJob", "examples_from_objects"]
@@ -41,7 +41,7 @@ class BuildModelJob(Job):
     label = "Building morphable model"
 
     def __init__(self, context, folder: str, labels: str, out: str):
-        from ..common.outputs import check_output_path
+        from ..adapters.outputs import check_output_path
         self.out = check_output_path(bpy.path.abspath(out), (".npz",))
         if folder:
             from ...faces_hands_addon.morph.meshfiles import read_example_folder
@@ -68,7 +68,7 @@ class BuildModelJob(Job):
 
     def commit(self, context) -> str:
         from ...faces_hands_addon.morph.model import save_model
-        from ..common.outputs import atomic_output
+        from ..adapters.outputs import atomic_output
         with atomic_output(self.out) as tmp:
             save_model(self.model, tmp)
         services.remember_model(str(self.out.resolve()), self.model)

@@ -6,11 +6,12 @@ from __future__ import annotations
 import bpy
 
 from ...faces_hands_addon.core.errors import UserError
-from ..common.hardened import HardenedOperator
-from ..common.jobs import Job
-from ..common.modal import JobOperator
+from ..bases.hardened import HardenedOperator
+from ..bases.jobs import Job
+from ..bases.modal import JobOperator
 from . import services
 from .jobs import BuildModelJob, MakeAnimatableJob
+from ...names import MORPH_EXAMPLES
 
 PARTS = [("both", "Shape + Colour", "Shape and colour"), ("shape", "Shape", "Shape only"),
          ("colour", "Colour", "Colour only")]
@@ -261,7 +262,7 @@ class FH_OT_morph_render_thumbnails(HardenedOperator, bpy.types.Operator):
         from .sheet import render_thumbnails
         obj = _face_object(context)
         settings = context.scene.faces_hands_morph
-        shown = matching_examples(json.loads(obj.get("fh_morph_examples", "[]")), settings.filter_sex,
+        shown = matching_examples(json.loads(obj.get(MORPH_EXAMPLES, "[]")), settings.filter_sex,
                                   settings.filter_age, settings.filter_population)[:self.count]
         if not shown:
             raise UserError("no database example passes the filters")

@@ -17,17 +17,14 @@ import numpy as np
 from ...faces_hands_addon.core.errors import UserError
 from ...faces_hands_addon.morph.editing import EditFace, face_from_state
 from ...faces_hands_addon.morph.segments import hierarchy_order
-from ..common.materials import enable_nodes
-from ..common.meshes import mesh_from_arrays, object_from_mesh
+from ..adapters.materials import enable_nodes
+from ..adapters.meshes import mesh_from_arrays, object_from_mesh
+from ...names import MORPH_EXAMPLES, MORPH_HISTORY, MORPH_MARKER, MORPH_MODEL, MORPH_STATE
 
 __all__ = ["MORPH_MARKER", "DEFAULT", "model_for", "create_face_object", "face_of", "morph_object",
            "write_face", "apply", "sync_panel", "save_face", "load_face", "segment_colours", "make_animatable"]
 
-MORPH_MARKER = "fh_morph"
-MODEL_KEY = "fh_morph_model"
-STATE_KEY = "fh_morph_state"
-EXAMPLES_KEY = "fh_morph_examples"
-HISTORY_KEY = "fh_morph_history"
+MODEL_KEY, STATE_KEY, EXAMPLES_KEY, HISTORY_KEY = MORPH_MODEL, MORPH_STATE, MORPH_EXAMPLES, MORPH_HISTORY
 ALBEDO = "FH Albedo"
 MASK = "FH Segments"
 DEFAULT = "default"
@@ -214,7 +211,7 @@ def _show_colours(mesh, name: str) -> None:
 
 def save_face(obj, path: str) -> Path:
     """The face as JSON (model, history, constraints, coefficients; 5.1.10)."""
-    from ..common.outputs import atomic_output, check_output_path
+    from ..adapters.outputs import atomic_output, check_output_path
     out = check_output_path(bpy.path.abspath(path), (".json",))
     with atomic_output(out) as tmp:
         tmp.write_text(json.dumps(face_of(obj).state(), indent=1, sort_keys=True), encoding="utf-8")

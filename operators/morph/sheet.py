@@ -12,7 +12,7 @@ import bpy
 import numpy as np
 
 from ...faces_hands_addon.morph.editing import EditFace
-from ..common import render
+from ..adapters import render
 from . import services
 
 #: a cell: (label, list of (method name, args, kwargs) applied to a fresh average face)

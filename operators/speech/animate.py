@@ -16,11 +16,11 @@ import os
 import bpy
 
 from ...faces_hands_addon.core.errors import UserError
-from ..common.hardened import HardenedOperator
-from ..common.jobs import Job
-from ..common.modal import JobOperator
-from ..common.paths import default_voice
-from ..common.timing import scene_fps
+from ..bases.hardened import HardenedOperator
+from ..bases.jobs import Job
+from ..bases.modal import JobOperator
+from ..adapters.paths import default_voice
+from ..adapters.timing import scene_fps
 from . import apply
 
 __all__ = ["AnimateSpeechJob", "FH_OT_animate_speech", "FH_OT_mute_speech_layer", "check_inputs", "set_layer_mute"]
@@ -31,7 +31,7 @@ def check_inputs(kind: str, source: str, text: str, path: str, style: str | None
     of an allowed length, a known style, a known emotion. Returns ``(style, emotion)``."""
     from ...faces_hands_addon.behavior.styles import load_style
     from ...faces_hands_addon.speech.audio import audio_header
-    from ...faces_hands_addon.speech.performance import parse_emotion
+    from ...faces_hands_addon.performance import parse_emotion
     if kind != "muscles":
         raise UserError("Animate Speech needs a Faces & Hands face rig (behaviour and emotion drive its "
                         "muscles); for a mesh with viseme shape keys use Speak Text or Lip Sync Audio")
@@ -95,13 +95,15 @@ class AnimateSpeechJob(Job):
         return 0.6
 
     def step(self) -> float:
-        from ...faces_hands_addon.speech.performance import with_loudness, with_nonverbal
+        from ...faces_hands_addon.performance import with_loudness, with_nonverbal, with_speech_priority
         if self.stage == 0:
             return self._take_step()
         if self.stage == 1:
             self.take = with_nonverbal(self.take, style=self.style, seed=self.seed, emotion=self.emotion)
-        elif self.stage == 2 and self.loudness:
-            self.take, self.curve = with_loudness(self.take)
+        elif self.stage == 2:
+            if self.loudness:
+                self.take, self.curve = with_loudness(self.take)
+            self.take = with_speech_priority(self.take)
         self.stage += 1
         return (0.85, 1.0)[self.stage - 2]
 
@@ -159,7 +161,7 @@ class FH_OT_animate_speech(JobOperator, bpy.types.Operator):
         return context.active_object is not None
 
     def make_job(self, context) -> Job:
-        from ...faces_hands_addon.speech.performance import voice_settings
+        from ...faces_hands_addon.performance import voice_settings
         from ...faces_hands_addon.speech.takes import take_from_audio, take_from_text
         settings = context.scene.faces_hands
         obj = context.active_object
@@ -193,7 +195,7 @@ def set_layer_mute(obj, group_name: str, mute: bool | None = None) -> tuple[bool
     the group and each of its F-curves (Blender 5.0 does not skip a muted group's curves when it
     evaluates a layered action; the Dope Sheet's group toggle flushes to the curves, this does the same).
     Returns (muted, how many curves)."""
-    from ..common.fcurves import existing_channelbag
+    from ..adapters.fcurves import existing_channelbag
     bag = existing_channelbag(obj)
     group = bag.groups.get(group_name) if bag is not None else None
     curves = [fc for fc in bag.fcurves if fc.group == group] if group is not None else []

@@ -3,8 +3,8 @@
 
 Two kinds of target object:
 
-* a rig (``common.rig_store``): the take's control tracks go to the rig's speech
-  layer ``["fh.speech.<control>"]`` (see ``common.controls``);
+* a rig (``adapters.rig_store``): the take's control tracks go to the rig's speech
+  layer ``["fh.speech.<control>"]`` (see ``adapters.controls``);
 * any mesh with Meta/Oculus viseme shape keys (``viseme_sil`` ... ``viseme_ou``, or the Ready Player Me
   spellings ``viseme_I/O/U``): the take's viseme
   weights animate those shape keys, so characters without a muscle rig lip-sync too.
@@ -14,7 +14,6 @@ its sound strip) and nothing else, and if writing fails half way the partial cur
 """
 from __future__ import annotations
 
-import json
 import os
 import tempfile
 from pathlib import Path
@@ -24,19 +23,20 @@ import numpy as np
 
 from ...faces_hands_addon.core.errors import UserError
 from ...faces_hands_addon.speech import VISEMES, save_wav
-from ...faces_hands_addon.speech.closures import lip_closures
+from ...faces_hands_addon.performance import take_of
 from ...faces_hands_addon.speech.phonemes import VISEME_ALIASES
-from ..common import controls, fcurves
-from ..common.bake import CLOSURES_PROPERTY
-from ..common.rig_store import is_rig
-from ..common.timing import scene_fps, seconds_to_frames
+from ..adapters import controls, fcurves
+from ..adapters.takes import remove_take, store_take
+from ..adapters.rig_store import is_rig
+from ..adapters.timing import scene_fps, seconds_to_frames
 from . import head as head_motion
+from ...names import MOUTH_CUES, TAKE_LAYERS
 
 STRIP_PREFIX = "FH Speech"
 #: object property holding the last take's mouth cues (Rhubarb shapes), for File > Export > Mouth Cues
-CUES_PROPERTY = "fh_mouth_cues"
+CUES_PROPERTY = MOUTH_CUES
 #: object property naming the layers besides speech the last take wrote (behavior, emotion)
-TAKE_LAYERS_PROPERTY = "fh_take_layers"
+TAKE_LAYERS_PROPERTY = TAKE_LAYERS
 VISEME_PATH = 'key_blocks["{}"].value'
 
 
@@ -111,9 +111,9 @@ def _remove_previous_take(scene, obj, owner, take_target: str, layers=()) -> Non
     else:
         names = [alias for v in VISEMES for alias in (v, *VISEME_ALIASES.get(v, ()))]
         fcurves.remove_fcurves(owner, tuple(VISEME_PATH.format(v) for v in names))
-    for prop in (CUES_PROPERTY, CLOSURES_PROPERTY):
-        if prop in obj:
-            del obj[prop]
+    if CUES_PROPERTY in obj:
+        del obj[CUES_PROPERTY]
+    remove_take(obj)
     editor = scene.sequence_editor
     if editor is not None:
         for strip in [s for s in editor.strips if s.name.startswith(f"{STRIP_PREFIX} {obj.name}")]:
@@ -164,19 +164,11 @@ def _cues_json(take) -> str:
     return cues_text(mouth_cues(take.utterance.phones, take.duration), "json", "", take.duration)
 
 
-def _closures_json(take, scene, start_frame: int) -> str:
-    """The take's lip closures in scene frames, for the bakes' closed-sample guarantee."""
-    spans = lip_closures(take.utterance.phones)
-    if not spans:
-        return "[]"
-    ends = seconds_to_frames(np.array([[c.start, c.end] for c in spans]).ravel(), scene, start_frame)
-    return json.dumps([[round(float(a), 4), round(float(b), 4), c.viseme]
-                       for (a, b), c in zip(np.reshape(ends, (-1, 2)), spans)])
-
-
 def apply_take(scene, obj, take, *, start_frame: int | None = None, audio_path: str | None = None,
                add_sound: bool = True) -> str:
-    """Write ``take`` onto ``obj`` (replacing its previous take); returns a one-line report."""
+    """Write ``take`` (a performed ``SpeechTake``) onto ``obj``, replacing its previous take: F-curves per
+    layer, the sound strip, and for a face rig the engine take the bakes start from (``adapters.takes``);
+    returns a one-line report."""
     kind = target_kind(obj)
     if kind != take.target:
         raise UserError(f"this take drives {take.target}, but '{obj.name}' needs {kind}")
@@ -199,9 +191,10 @@ def apply_take(scene, obj, take, *, start_frame: int | None = None, audio_path: 
         if add_sound:
             _add_sound_strip(scene, obj, take, start, audio_path)
         obj[CUES_PROPERTY] = _cues_json(take)
-        obj[CLOSURES_PROPERTY] = _closures_json(take, scene, start)
         if owned:
             obj[TAKE_LAYERS_PROPERTY] = " ".join(sorted(owned))
+        if take.target == "muscles":
+            store_take(obj, take_of(take), scene, start)
     except Exception:
         _remove_previous_take(scene, obj, owner, take.target, owned)
         raise

@@ -23,9 +23,9 @@ from ...faces_hands_addon.core.foreign_files import read_text
 from ...faces_hands_addon.speech.audio import audio_header, written_here
 from ...faces_hands_addon.speech.espeak import RATE_RANGE
 from ...faces_hands_addon.speech.takes import check_text_length, estimated_seconds
-from ..common.bake import MAX_FRAMES
-from ..common.interrupts import raise_pending
-from ..common.outputs import check_output_path, ledger_mark, refuse_collisions, same_file, written, written_since
+from ..bases.bake import MAX_FRAMES
+from ..cli.interrupts import raise_pending
+from ..adapters.outputs import check_output_path, ledger_mark, refuse_collisions, same_file, written, written_since
 from ..face.sheet import VIEWS
 
 __all__ = ["OUT_SUFFIXES", "COLUMNS", "checked_spec", "read_jobs", "run_jobs"]
@@ -64,7 +64,7 @@ def _nonverbal(spec: dict):
     """(style or None, seed, emotion or None) of a take, checked: a style of the styles preset, a whole
     seed >= 0, an emotion word of the table or an activation,evaluation point."""
     from ...faces_hands_addon.behavior.styles import load_style
-    from ...faces_hands_addon.speech.performance import parse_emotion
+    from ...faces_hands_addon.performance import parse_emotion
     style = spec.get("style") or None
     if style is not None:
         load_style(style)

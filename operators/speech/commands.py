@@ -4,7 +4,7 @@
 from __future__ import annotations
 
 from ...faces_hands_addon.core.errors import UserError
-from ..common.outputs import written
+from ..adapters.outputs import written
 from ..face.sheet import VIEWS
 from .batch import checked_spec, read_jobs, run_jobs
 from .services import run_line, shared_default_rig
@@ -26,7 +26,8 @@ def _common_arguments(parser) -> None:
                                         "character style: neutral, nodder, brow_raiser, reserved, expressive")
     parser.add_argument("--seed", type=int, default=0, help="seed of the behaviour's random choices (default 0)")
     parser.add_argument("--emotion", help="an emotion for the whole take, in face and voice: a word (joy, fear, "
-                                          "anxiety, ...) or activation,evaluation such as 50,-20")
+                                          "anxiety, ...) or activation,evaluation such as 50,-20 (a point that "
+                                          "starts with a minus sign needs '=': --emotion=-50,-20)")
     parser.add_argument("--jobs", help="CSV with one row per take (columns: out, and text or audio "
                                        "[+ transcript]; optional voice, rate, sheet, view, animation, live_link, "
                                        "cues, style, seed, emotion); "

@@ -9,9 +9,9 @@ import bpy
 from ...faces_hands_addon.core.errors import UserError
 from ...faces_hands_addon.emotion import EmotionPoint, expression_for, load_model
 from ...faces_hands_addon.emotion.disk import picked_point
-from ..common import controls, fcurves
-from ..common.hardened import HardenedOperator
-from ..common.rig_store import is_rig, rig_of
+from ..adapters import controls, fcurves
+from ..bases.hardened import HardenedOperator
+from ..adapters.rig_store import is_rig, rig_of
 
 __all__ = ["CLASSES", "picker_point"]
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..common.timing import seconds_to_frames
+from ..adapters.timing import seconds_to_frames
 
 HEAD_PATHS = ("delta_rotation_euler", "delta_location")
 
@@ -58,7 +58,7 @@ def pose_head(obj, controls: dict) -> None:
     """Hold the head at one pose for a still (a contact-sheet cell): ``controls``' ``head.pitch/yaw/roll``
     as the delta transform, with the take's head F-curves muted meanwhile; empty ``controls``: the curves
     play again and the delta goes back to rest."""
-    from ..common.fcurves import existing_channelbag
+    from ..adapters.fcurves import existing_channelbag
     if obj.rotation_mode not in EULER_ORDERS:
         return
     bag = existing_channelbag(obj)

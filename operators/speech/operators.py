@@ -5,12 +5,12 @@ from __future__ import annotations
 import bpy
 
 from ...faces_hands_addon.core.errors import UserError
-from ..common.file_operators import SaveFileOperator
-from ..common.hardened import HardenedOperator
-from ..common.jobs import Job
-from ..common.modal import JobOperator
-from ..common.paths import default_voice
-from ..common.timing import scene_fps
+from ..bases.file_operators import SaveFileOperator
+from ..bases.hardened import HardenedOperator
+from ..bases.jobs import Job
+from ..bases.modal import JobOperator
+from ..adapters.paths import default_voice
+from ..adapters.timing import scene_fps
 from . import apply
 
 
@@ -42,7 +42,7 @@ def _speech_settings(context):
 def _nonverbal(settings, kind: str):
     """(style or None, seed, emotion or None) from the panel, checked before the slow part; viseme shape
     keys only lip-sync."""
-    from ...faces_hands_addon.speech.performance import parse_emotion
+    from ...faces_hands_addon.performance import parse_emotion
     if kind != "muscles":
         return None, 0, None
     style = None if settings.behavior_style in ("", "NONE") else settings.behavior_style
@@ -50,11 +50,12 @@ def _nonverbal(settings, kind: str):
 
 
 def _performed(take, style, seed, emotion):
-    """The take with its behaviour and emotion layers (face rigs), or as it is."""
-    from ...faces_hands_addon.speech.performance import with_nonverbal
-    if take.target != "muscles" or (style is None and emotion is None and not take.utterance.emotions):
+    """The take with its behaviour and emotion layers and speech's priority over the lips (face rigs), or
+    as it is (viseme shape keys)."""
+    from ...faces_hands_addon.performance import perform
+    if take.target != "muscles":
         return take
-    return with_nonverbal(take, style=style, seed=seed, emotion=emotion)
+    return perform(take, style=style, seed=seed, emotion=emotion)
 
 
 class _SpeechOperatorBase(JobOperator):
@@ -94,7 +95,7 @@ class FH_OT_speak_text(_SpeechOperatorBase, bpy.types.Operator):
         style, seed, emotion = _nonverbal(settings, kind)
 
         def make():
-            from ...faces_hands_addon.speech.performance import voice_settings
+            from ...faces_hands_addon.performance import voice_settings
             voice = voice_settings(emotion, settings.speech_rate, settings.speech_pitch, settings.speech_volume)
             take = take_from_text(text, voice=settings.speech_voice or default_voice(), fps=fps, target=kind,
                                   **voice)
@@ -155,7 +156,7 @@ class FH_OT_export_mouth_cues(HardenedOperator, SaveFileOperator, bpy.types.Oper
         from pathlib import Path
 
         from ...faces_hands_addon.speech.cues import MouthCue, cue_format, cues_text
-        from ..common.outputs import atomic_output
+        from ..adapters.outputs import atomic_output
         obj = context.active_object
         stored = obj.get(apply.CUES_PROPERTY)
         if not stored:

@@ -11,12 +11,12 @@ import bpy
 
 from ...faces_hands_addon.anim.timing import check_fps
 from ...faces_hands_addon.core.errors import UserError
-from ..common.blendfile import open_blend
-from ..common.export import save_or_export
-from ..common.outputs import atomic_output
-from ..common.rig_store import find_rig
-from ..common.targets import write_live_link
-from ..common.timing import scene_fps, set_scene_fps
+from ..adapters.blendfile import open_blend
+from ..adapters.export import save_or_export
+from ..adapters.outputs import atomic_output
+from ..adapters.rig_store import find_rig
+from ..adapters.targets import write_live_link
+from ..adapters.timing import scene_fps, set_scene_fps
 from ..face import services as face, sheet
 from ..face.objects import EXPORT_ROLES
 from . import apply, head as head_motion
@@ -40,31 +40,22 @@ def _prepare_rig(rig_path: str | None, fps: float, progress):
 
 
 def _bake_take(rig_obj, take, progress, animation: str = "weights") -> None:
-    """Put the take on the rig, then simulate every frame of it: as engine-ready weights of the fixed
-    targets, or as the exact per-frame cache (``animation="frames"``)."""
+    """Put the take on the rig (F-curves and sound for the artist), then bake the engine take itself,
+    never the curves just written (data flows one way): every frame simulated, as engine-ready weights of
+    the fixed targets or as the exact per-frame cache (``animation="frames"``)."""
+    from ...faces_hands_addon.performance import take_of
     scene = bpy.context.scene
     scene.frame_start = 0
     report = apply.apply_take(scene, rig_obj, take, start_frame=0)
     scene.frame_end = max(1, int(math.ceil(take.duration * scene_fps(scene))))
     print(report)
-    print(face.bake(bpy.context, rig_obj, "animation", progress=progress, animation=animation))
-
-
-def _controls_at(take, time: float) -> dict[str, float]:
-    """Every layer of the take at ``time``, summed and clamped (the layers' mixing rule, thesis 4.3.5)."""
-    values: dict[str, float] = {}
-    for tracks in (take.tracks, *take.layers.values()):
-        for track in tracks:
-            values[track.name] = values.get(track.name, 0.0) + float(track.sample(time))
-    out = {}
-    for name, value in values.items():
-        low, high = take.ranges.get(name, (value, value))
-        out[name] = min(max(value, low), high)
-    return out
+    print(face.bake(bpy.context, rig_obj, "animation", progress=progress, animation=animation,
+                    take=(take_of(take), 0)))
 
 
 def phoneme_cells(take, limit: int = 40) -> list:
-    """(label, controls) at the centre of each spoken phone and at each emoticon's apex, for a contact sheet."""
+    """(label, layer values) at the centre of each spoken phone and at each emoticon's apex, for a contact
+    sheet (the rig mixes the layers: ``face.sheet.cell_layers``)."""
     cells = []
     for phone in take.utterance.phones:
         if phone.is_pause:
@@ -73,8 +64,11 @@ def phoneme_cells(take, limit: int = 40) -> list:
         word = take.utterance.words[phone.word].text if phone.word is not None and phone.word >= 0 else ""
         cells.append((centre, f"/{phone.phone}/ {word}".strip()))
     cells += [(tag.time, f"{tag.emoticon} {tag.emotion}") for tag in take.utterance.emotions if tag.time is not None]
-    return [(label, {**_controls_at(take, time), **{t.name: float(t.sample(time)) for t in take.head}})
-            for time, label in sorted(cells)][:limit]
+    def layers_at(time: float) -> dict:
+        layers = {layer: {t.name: float(t.sample(time)) for t in tracks}
+                  for layer, tracks in (("speech", take.tracks), *take.layers.items())}
+        return {**layers, "head": {t.name: float(t.sample(time)) for t in take.head}}
+    return [(label, layers_at(time)) for time, label in sorted(cells)][:limit]
 
 
 def _write_outputs(rig_obj, take, out: Path, sheet_path: Path | None, progress, source_audio=None,
@@ -123,7 +117,7 @@ def run_line(spec: dict, rig_path, fps, progress) -> list[Path]:
     for path in spec["outputs"]:
         if path.exists():
             print(f"replacing {path}")
-    from ...faces_hands_addon.speech.performance import voice_settings, with_loudness, with_nonverbal
+    from ...faces_hands_addon.performance import perform, voice_settings
     emotion = spec.get("emotion")
     if spec.get("audio"):
         take = take_from_audio(spec["audio"], spec.get("transcript") or None, fps=fps, target="muscles",
@@ -134,10 +128,9 @@ def run_line(spec: dict, rig_path, fps, progress) -> list[Path]:
                               progress=progress, **voice)
     for warning in take.utterance.warnings:
         print(f"warning: {warning}")
-    if spec.get("style") or emotion is not None or take.utterance.emotions:
-        take = with_nonverbal(take, style=spec.get("style"), seed=int(spec.get("seed") or 0), emotion=emotion)
-    if spec.get("audio"):      # recorded speech: mouth, brows and head scaled by its loudness (4.2.1)
-        take, _ = with_loudness(take)
+    # recorded speech: mouth, brows and head scaled by its loudness (4.2.1)
+    take = perform(take, style=spec.get("style"), seed=int(spec.get("seed") or 0), emotion=emotion,
+                   loudness=bool(spec.get("audio")))
     rig_obj = _prepare_rig(rig_path, fps, progress)
     _bake_take(rig_obj, take, progress, spec["animation"])
     return _write_outputs(rig_obj, take, out, sheet_path, progress, spec.get("audio"), spec["view"],

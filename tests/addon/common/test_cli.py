@@ -56,7 +56,7 @@ def test_a_commands_temporary_files_all_go_with_it(installed, tmp_path, monkeypa
     import tempfile
 
     from conftest import addon_module
-    interrupts = addon_module("operators.common.interrupts")
+    interrupts = addon_module("operators.cli.interrupts")
     monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
     with pytest.raises(KeyboardInterrupt):
         with interrupts.interruptible(), interrupts.private_temp_root():
@@ -82,7 +82,7 @@ def test_a_run_leaves_bytecode_for_the_next(installed, built_extension):
     import shutil
     from pathlib import Path
 
-    cached = [built_extension / "operators" / "cli.py", built_extension / "faces_hands_addon" / "core" / "errors.py"]
+    cached = [built_extension / "operators" / "cli" / "command_line.py", built_extension / "faces_hands_addon" / "core" / "errors.py"]
     for source in cached:
         shutil.rmtree(source.parent / "__pycache__", ignore_errors=True)
     result = run_fh(installed, "info")

@@ -8,7 +8,7 @@ from conftest import addon_module, run_fh
 
 
 def _cells(path, columns: int, rows: int = 1) -> list[np.ndarray]:
-    image = addon_module("operators.common.render").read_png(path)[:, :, :3]
+    image = addon_module("operators.adapters.render").read_png(path)[:, :, :3]
     height, width = image.shape[0] // rows, image.shape[1] // columns
     return [image[r * height:(r + 1) * height, c * width:(c + 1) * width] for r in range(rows) for c in range(columns)]
 

@@ -78,7 +78,7 @@ def test_menus_list_existing_operators_and_are_hooked_into_blender(bpy_clean):
 
 def test_preferences_page_and_preset_folder(bpy_clean, tmp_path):
     bpy = bpy_clean
-    paths = addon_module("operators.common.paths")
+    paths = addon_module("operators.adapters.paths")
     presets = addon_module("faces_hands_addon.core.presets")
     prefs = paths.preferences()
     assert prefs is not None and {"output_folder", "preset_folder", "voice"} <= set(prefs.bl_rna.properties.keys())

@@ -74,7 +74,7 @@ def _scene(bpy, case):
 @pytest.mark.parametrize("case", CASES)
 def test_every_vertex_of_every_part_where_the_scene_has_it(bpy_clean, tmp_path, case):
     bpy = bpy_clean
-    export = addon_module("operators.common.export")
+    export = addon_module("operators.adapters.export")
     head, eye = _scene(bpy, case)
     wanted = world_vertices(bpy, [head, eye], FRAMES)
     names = mesh_names([head, eye])

@@ -88,7 +88,7 @@ def test_an_importer_out_of_memory_is_a_message_and_the_scene_stays(bpy_clean, f
     """The child's memory limit holds (here set below what Blender needs to start): the import fails with a
     message, this session's scene is untouched."""
     bpy = bpy_clean
-    foreign = addon_module("operators.common.foreign_import")
+    foreign = addon_module("operators.adapters.foreign_import")
     errors = addon_module("faces_hands_addon.core.errors")
     bpy.ops.mesh.primitive_cube_add()
 
@@ -110,7 +110,7 @@ def test_an_importer_out_of_memory_is_a_message_and_the_scene_stays(bpy_clean, f
 def test_a_control_property_that_is_not_a_number_is_named(bpy_clean):
     """What the live preview and every bake read: a layer property a script set to text or a list."""
     bpy = bpy_clean
-    controls = addon_module("operators.common.controls")
+    controls = addon_module("operators.adapters.controls")
     errors = addon_module("faces_hands_addon.core.errors")
     obj = bpy.data.objects.new("Rig", None)
     bpy.context.scene.collection.objects.link(obj)

@@ -23,7 +23,7 @@ def baked_rig(bpy_clean):
 
 def test_blender_drivers_agree_with_the_engine_mix(baked_rig):
     bpy, rig = baked_rig
-    engine = addon_module("operators.common.rig_store").get_rig(rig)
+    engine = addon_module("operators.adapters.rig_store").get_rig(rig)
     specs = engine.control_specs()
     from faces_hands_addon.anim.layers import mix, weighted_sum
     from faces_hands_addon.face.rig import WRINKLE_DRIVERS
@@ -78,8 +78,8 @@ def test_sampled_layers_match_playing_the_frames(bpy_clean):
         rig["fh.speech.risorius_L"] = value / 2
         rig.keyframe_insert('["fh.speech.risorius_L"]', frame=frame)
     rig["fh.ctrl.procerus"] = 0.4                                   # set, not animated
-    controls = addon_module("operators.common.controls")
-    specs = addon_module("operators.common.rig_store").get_rig(rig).control_specs()
+    controls = addon_module("operators.adapters.controls")
+    specs = addon_module("operators.adapters.rig_store").get_rig(rig).control_specs()
     frames = list(range(1, 31))
     direct = controls.sample_layers(rig, scene, specs, frames)
     scene.frame_set(7)

@@ -99,8 +99,8 @@ def state():
         "enabled": module in {a.module for a in bpy.context.preferences.addons},
         "operators": sorted(n for n in dir(bpy.types) if n.startswith(("FH_", "FACES_HANDS_"))),
         "scene_prop": hasattr(bpy.types.Scene, "faces_hands"),
-        "registry": sys.modules[module + ".operators.common.registry"].registered_summary()
-                    if module + ".operators.common.registry" in sys.modules else None,
+        "registry": sys.modules[module + ".operators.bases.registry"].registered_summary()
+                    if module + ".operators.bases.registry" in sys.modules else None,
         "menu_entries": sum(1 for menu in ("VIEW3D_MT_add", "VIEW3D_MT_object", "TOPBAR_MT_file_export")
                             for f in getattr(getattr(bpy.types, menu).draw, "_draw_funcs", [])
                             if getattr(f, "__module__", "").startswith(module)),

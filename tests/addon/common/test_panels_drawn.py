@@ -9,7 +9,7 @@ from types import SimpleNamespace
 import pytest
 
 from conftest import addon_module
-from ui_layout import CheckedLayout, LayoutError
+from ui_layout import CheckedLayout, LayoutError, panel_host
 
 SCENES = {
     "nothing": lambda bpy: None,
@@ -21,7 +21,7 @@ SCENES = {
 
 def _draw(bpy, cls, context) -> list:
     layout = CheckedLayout(bpy)
-    host = SimpleNamespace(layout=layout, bl_label=getattr(cls, "bl_label", ""))
+    host = panel_host(cls, layout)
     if hasattr(cls, "draw_header"):
         cls.draw_header(host, context)
     cls.draw(host, context)

@@ -48,4 +48,4 @@ def test_broken_user_preset_refuses_the_bake_and_changes_nothing(bpy_clean):
         assert rig.data.shape_keys is None
     finally:
         broken.unlink()
-    assert addon_module("operators.common.paths").user_preset_folder("nonexistent.package") is None
+    assert addon_module("operators.adapters.paths").user_preset_folder("nonexistent.package") is None

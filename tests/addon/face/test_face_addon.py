@@ -61,7 +61,7 @@ def test_build_default_rig_objects_and_controls(bpy_clean):
 def test_live_step_moves_only_the_simulation_key(bpy_clean):
     bpy = bpy_clean
     rig = _build(bpy)
-    live = addon_module("operators.common.live")
+    live = addon_module("operators.bases.live")
     base = np.array([v.co[:] for v in rig.data.vertices])
     rig["fh.ctrl.jaw_open"] = 1.0
     for _ in range(20):
@@ -72,7 +72,7 @@ def test_live_step_moves_only_the_simulation_key(bpy_clean):
     assert np.allclose(np.array([v.co[:] for v in rig.data.vertices]), base), "base mesh changed"
     teeth = next(c for c in rig.children if c.get("fh_part") == "teeth_lower")
     matrix = np.array([list(row) for row in teeth.matrix_basis])
-    rig_engine = addon_module("operators.common.rig_store").get_rig(rig)
+    rig_engine = addon_module("operators.adapters.rig_store").get_rig(rig)
     assert np.allclose(matrix, rig_engine.rigid_transforms()["teeth_lower"], atol=1e-6), "teeth transform mangled"
     assert matrix[2, 3] < -0.005, "lower teeth did not drop with the jaw"
 
@@ -139,7 +139,7 @@ def _key_jaw(bpy, rig):
 
 
 def _weight_curves(key) -> dict:
-    bag = addon_module("operators.common.fcurves").existing_channelbag(key)
+    bag = addon_module("operators.adapters.fcurves").existing_channelbag(key)
     assert bag is not None, "the shape keys carry no animation"
     curves = {}
     for curve in bag.fcurves:
@@ -224,7 +224,7 @@ def test_bake_cancelled_half_way_leaves_the_scene_as_it_was(bpy_clean):
     assert _scene_state(bpy) == before
     # the same job run to its end does change the scene: the comparison above can fail
     job = services.bake_job(bpy.context, rig, "EXPRESSIONS", "visemes")
-    addon_module("operators.common.jobs").run_job(job, bpy.context)
+    addon_module("operators.bases.jobs").run_job(job, bpy.context)
     assert _scene_state(bpy) != before and "viseme_PP" in rig.data.shape_keys.key_blocks
 
 

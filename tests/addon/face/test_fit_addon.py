@@ -48,8 +48,8 @@ def test_fit_rig_keeps_the_mesh_and_muscles_act(bpy_clean):
     assert obj.get("fh_rig") and len(obj.data.vertices) == len(before)
     assert np.allclose(np.array([v.co[:] for v in obj.data.vertices]), before), "the artist's mesh changed"
     assert "ArtistUV" in obj.data.uv_layers and "ArtistKey" in obj.data.shape_keys.key_blocks
-    live = addon_module("operators.common.live")
-    rig = addon_module("operators.common.rig_store").get_rig(obj)
+    live = addon_module("operators.bases.live")
+    rig = addon_module("operators.adapters.rig_store").get_rig(obj)
     corner = rig.landmarks[291]  # left mouth corner (character's left = +X), world coordinates
     world = np.array(obj.matrix_world)
     local_corner = np.linalg.inv(world) @ np.r_[corner, 1.0]
@@ -110,7 +110,7 @@ def test_fit_rig_on_a_head_lying_face_up(bpy_clean, tmp_path):
     obj.rotation_euler = (-np.pi / 2, 0.0, 0.0)
     bpy.context.view_layer.update()
     assert bpy.ops.faces_hands.fit_face_rig() == {"FINISHED"}
-    rig = addon_module("operators.common.rig_store").get_rig(obj)
+    rig = addon_module("operators.adapters.rig_store").get_rig(obj)
     world = np.array(obj.matrix_world)
     truth = head.truth @ world[:3, :3].T + world[:3, 3]
     error = np.linalg.norm(np.asarray(rig.landmarks) - truth, axis=1) / head.face_width
@@ -123,12 +123,12 @@ def _exported_in_place(bpy, obj, tmp_path):
     skin's extremes on every axis, behind the face) and every vertex of every part within 0.1 mm of the
     scene's (the parts were 10 m off before: issue 33)."""
     services = addon_module("operators.face.services")
-    objects = addon_module("operators.common.export").export_objects(obj, addon_module("operators.face.objects").EXPORT_ROLES)
+    objects = addon_module("operators.adapters.export").export_objects(obj, addon_module("operators.face.objects").EXPORT_ROLES)
     wanted = world_vertices(bpy, objects, [None])
     names = mesh_names(objects)
     paths = [services.export(bpy.context, obj, str(tmp_path / f"turned.{fmt}")) for fmt in ("glb", "fbx")]
     skin_name = obj.name
-    eyes = [part.name for role, part in addon_module("operators.common.rig_store").parts(obj).items()
+    eyes = [part.name for role, part in addon_module("operators.adapters.rig_store").parts(obj).items()
             if role in ("eye_L", "eye_R")]
     assert len(eyes) == 2
     for path in paths:

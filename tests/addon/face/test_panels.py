@@ -2,12 +2,9 @@
 the bpy module has no UI) for an empty scene, a face rig, and with the control filter."""
 from __future__ import annotations
 
-from types import SimpleNamespace
-
 import pytest
 
-from ui_layout import CheckedLayout
-
+from ui_layout import CheckedLayout, panel_host
 
 def _draw_all(bpy):
     drawn = {}
@@ -18,18 +15,15 @@ def _draw_all(bpy):
         if hasattr(cls, "poll") and not cls.poll(context):
             drawn[name] = None
             continue
-        layout = CheckedLayout(bpy, log)
-        cls.draw(SimpleNamespace(layout=layout), context)
+        cls.draw(panel_host(cls, CheckedLayout(bpy, log)), context)
         drawn[name] = log
     return drawn
-
 
 @pytest.mark.smoke
 def test_panels_draw_without_a_rig(bpy_clean):
     drawn = _draw_all(bpy_clean)
     assert drawn["FH_PT_face_controls"] is None
     assert any(call[0] == "operator" and call[1][0] == "faces_hands.build_face_rig" for call in drawn["FH_PT_face"])
-
 
 def test_panels_draw_rig_controls_grouped_and_filtered(bpy_clean):
     bpy = bpy_clean

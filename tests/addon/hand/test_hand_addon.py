@@ -84,7 +84,7 @@ def test_limit_rotation_keeps_a_posed_bone_inside_table_6_4(bpy_clean):
 def test_live_step_curls_a_finger_towards_the_palm(bpy_clean):
     bpy = bpy_clean
     obj = _build(bpy)
-    live = addon_module("operators.common.live")
+    live = addon_module("operators.bases.live")
     objects = addon_module("operators.hand.objects")
     rest = _evaluated(bpy, obj)
     obj["fh.ctrl.flexor_digitorum_profundus_middle"] = 0.4
@@ -154,7 +154,7 @@ def test_bake_and_export_glb_and_fbx(bpy_clean, tmp_path):
     obj.rotation_euler = (0.4, -0.2, 1.3)         # a hand the artist turned and moved
     obj.location = (0.3, -0.5, 1.1)
     frames = (1, 40, 70, 103)
-    objects = addon_module("operators.common.export").export_objects(obj, addon_module("operators.hand.objects").EXPORT_ROLES)
+    objects = addon_module("operators.adapters.export").export_objects(obj, addon_module("operators.hand.objects").EXPORT_ROLES)
     wanted, names = world_vertices(bpy, objects, frames), mesh_names(objects)
     fbx = services.export(bpy.context, obj, str(tmp_path / "hand.fbx"))
     glb = services.export(bpy.context, obj, str(tmp_path / "hand.glb"))
@@ -195,7 +195,7 @@ def test_retarget_onto_the_webxr_generic_hand(bpy_clean, installed):
 def test_a_left_hand_is_mirrored_and_curls_the_same_way(bpy_clean):
     bpy = bpy_clean
     obj = _build(bpy, "left")
-    live = addon_module("operators.common.live")
+    live = addon_module("operators.bases.live")
     objects = addon_module("operators.hand.objects")
     rest = _evaluated(bpy, obj)
     assert rest[int(np.argmin(rest[:, 1])), 0] < -0.02        # the thumb tip: at +X on a right hand, -X here

@@ -22,7 +22,7 @@ def _photo(bpy, tmp_path: Path) -> tuple[Path, Path, dict]:
     from mathutils import Vector
     assert bpy.ops.faces_hands.build_hand_rig() == {"FINISHED"}
     obj = bpy.context.active_object
-    rig = addon_module("operators.common.rig_store").get_rig(obj, "hand")
+    rig = addon_module("operators.adapters.rig_store").get_rig(obj, "hand")
     obj.scale = tuple(np.diag(STRETCH))
     features = {k: STRETCH @ v for k, v in rig.feature_points().items()}
     points = np.array(list(features.values()))
@@ -39,7 +39,7 @@ def _photo(bpy, tmp_path: Path) -> tuple[Path, Path, dict]:
     ruler.location = tuple(start + 0.1 * right)
     ruler.rotation_euler = Vector(right).to_track_quat("X", "Z").to_euler()
     scene = bpy.context.scene
-    render = addon_module("operators.common.render")
+    render = addon_module("operators.adapters.render")
     render.setup_workbench(scene, SIZE)
     camera_data = bpy.data.cameras.new("photo")
     camera_data.type, camera_data.ortho_scale = "ORTHO", 0.3
@@ -75,7 +75,7 @@ def test_the_warped_hand_from_a_photo_has_the_photographed_proportions(bpy_clean
     result = run_fh(installed, "build-hand", "--photo", png, "--points", points, "--out", out)
     assert result.returncode == 0, result.stderr
     bpy.ops.wm.open_mainfile(filepath=str(out))
-    store = addon_module("operators.common.rig_store")
+    store = addon_module("operators.adapters.rig_store")
     rig = store.get_rig(store.find_rig(bpy.data.objects, None, "hand"), "hand")
     warped = rig.feature_points()
     pairs = [("index_mcp", "pinky_mcp"), ("ulna_head", "middle_tip"), ("wrist_radial", "wrist_ulnar"),

@@ -88,7 +88,7 @@ def test_segment_edit_and_save_load(bpy_clean, tmp_path):
 
 
 def _examples(bpy, count=5, seed=0):
-    mesh_from_arrays = addon_module("operators.common.meshes").mesh_from_arrays
+    mesh_from_arrays = addon_module("operators.adapters.meshes").mesh_from_arrays
     assets = addon_module("faces_hands_addon.assets")
     base = assets.canonical_face()
     rng = np.random.default_rng(seed)
@@ -130,7 +130,7 @@ def test_build_model_from_meshes_with_labels_and_bad_input(bpy_clean, tmp_path):
 def test_contact_sheet_cells_differ(bpy_clean, tmp_path):
     bpy = bpy_clean
     sheet = addon_module("operators.morph.sheet")
-    render = addon_module("operators.common.render")
+    render = addon_module("operators.adapters.render")
     obj = _new(bpy)
     path = tmp_path / "sheet.png"
     sheet.render_sheet(bpy.context, obj, sheet.fig_3_8_cells(), path, cell_size=(160, 180), columns=5)

@@ -45,7 +45,7 @@ def test_word_point_expression_and_set_emotion(bpy_clean):
     assert settings.emotion_word == "CUSTOM" and picker.picker_point(settings).word == ""
     bpy.context.scene.frame_set(12)
     assert bpy.ops.faces_hands.set_emotion(key=True) == {"FINISHED"}
-    bag = addon_module("operators.common.fcurves").existing_channelbag(rig)
+    bag = addon_module("operators.adapters.fcurves").existing_channelbag(rig)
     keyed = [c for c in bag.fcurves if c.data_path.startswith('["fh.emotion.')]
     assert keyed and all(c.keyframe_points[0].co[0] == 12 for c in keyed)
     assert bpy.ops.faces_hands.use_emotion_for_speech() == {"FINISHED"}

@@ -230,7 +230,10 @@ def test_speak_with_behaviour_and_emotion_puts_each_on_its_layer(bpy_clean):
     lids = curves['["fh.behavior.eyelid_close_L"]']
     assert max(k.co[1] for k in lids.keyframe_points) == pytest.approx(1.0, abs=1e-6)     # a full blink
     smile = curves['["fh.emotion.zygomaticus_major_L"]']
-    assert min(k.co[1] for k in smile.keyframe_points) > 0.2                 # joy all through the take
+    values = np.array([k.co[1] for k in smile.keyframe_points])
+    # joy all through the take, except where the lips round (/ow/ in "hello", /aw/ "how", /uw/ "you"): there
+    # speech owns the smile (performance.priority), so it gives way and comes back
+    assert np.median(values) > 0.5 and (values > 0.2).mean() > 0.6 and values.min() < 0.2
     assert rig["fh_take_layers"] == "behavior emotion head"
     assert max(abs(a) for a in rig.delta_rotation_euler) < 0.35        # the head turns with the speech
     # lip sync only again: the previous take's behaviour and emotion go with it, the artist's keys stay

@@ -1,6 +1,6 @@
 """The shape of the shipped code, read from the built extension (CONTRIBUTING.md "Layout"): no import cycles
-(imports inside functions count), the engine never imports Blender, ``operators/common`` never imports a
-subsystem, panels never import operators, no file past 600 lines, no function past 80 lines, no private
+(imports inside functions count), the engine never imports Blender, the shared rooms of ``operators``
+(``adapters``, ``bases``) never import a subsystem and adapters never import operator bases, panels never import operators, no file past 600 lines, no function past 80 lines, no private
 names imported across modules, no object cloning through ``__new__``/``__dict__``, no comment that points
 outside the extension."""
 from __future__ import annotations
@@ -14,6 +14,7 @@ import pytest
 BLENDER_MODULES = {"bpy", "mathutils", "bmesh", "bpy_extras", "gpu", "addon_utils"}
 SUBSYSTEM_PACKAGES = ("operators.face", "operators.speech", "operators.general", "operators.hand",
                       "operators.morph", "operators.behavior")
+SHARED_ROOMS = ("operators.adapters", "operators.bases")
 MAX_FILE_LINES, MAX_FUNCTION_LINES = 600, 80
 
 
@@ -59,7 +60,7 @@ def _imports(name: str, path: Path, modules: dict[str, Path]):
 @pytest.fixture(scope="module")
 def code(built_extension):
     modules = _modules(built_extension)
-    assert "faces_hands_addon.core.rig" in modules and "operators.common.registry" in modules
+    assert "faces_hands_addon.core.rig" in modules and "operators.bases.registry" in modules
     graph = {name: sorted({t for t, _, _ in _imports(name, path, modules) if t in modules and t != name})
              for name, path in modules.items()}
     return built_extension, modules, graph
@@ -116,8 +117,10 @@ def test_layers_import_only_downwards(code):
             if name.startswith("faces_hands_addon") and (top in BLENDER_MODULES or target.startswith("operators")
                                                          or target.startswith("panels")):
                 offences.append(f"{name}:{line} (engine) imports {target}")
-            if name.startswith("operators.common") and target.startswith(SUBSYSTEM_PACKAGES):
-                offences.append(f"{name}:{line} (common) imports the subsystem {target}")
+            if name.startswith(SHARED_ROOMS) and target.startswith(SUBSYSTEM_PACKAGES):
+                offences.append(f"{name}:{line} (shared) imports the subsystem {target}")
+            if name.startswith("operators.adapters") and target.startswith(("operators.bases", "operators.cli")):
+                offences.append(f"{name}:{line} (adapter) imports the operator layer {target}")
             if name.startswith("panels") and target.startswith("operators"):
                 offences.append(f"{name}:{line} (panel) imports {target}")
     assert offences == []
@@ -160,3 +163,36 @@ def test_nothing_points_outside_the_extension(code):
     offences = [f"{path.relative_to(root)}:{n}" for path in files
                 for n, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1) if pattern.search(line)]
     assert offences == []
+
+
+def _package_graph(graph: dict[str, list[str]]) -> dict[str, list[str]]:
+    """The engine's import graph collapsed to its packages (``faces_hands_addon.<package>``)."""
+    def package(name: str) -> str:
+        return ".".join(name.split(".")[:2])
+    out: dict[str, set[str]] = {}
+    for name, targets in graph.items():
+        if not name.startswith("faces_hands_addon."):
+            continue
+        out.setdefault(package(name), set()).update(
+            package(t) for t in targets if t.startswith("faces_hands_addon.") and package(t) != package(name))
+    return {name: sorted(targets) for name, targets in out.items()}
+
+
+def test_engine_packages_form_no_loop(code):
+    """Packages, not only modules: speech -> behaviour/emotion -> face -> speech was a loop of packages made of
+    modules that never imported each other in a circle. The composition of speech, behaviour and emotion
+    lives above all three (``performance``)."""
+    _, _, graph = code
+    packages = _package_graph(graph)
+    assert {"faces_hands_addon.speech", "faces_hands_addon.performance", "faces_hands_addon.emotion"} <= set(packages)
+    assert _cycles(packages) == []
+    assert "faces_hands_addon.performance" not in {t for name, targets in packages.items() for t in targets}, \
+        "nothing in the engine may import the performance package: it composes the others"
+
+
+def test_a_package_loop_would_be_found():
+    graph = {"faces_hands_addon.speech.a": ["faces_hands_addon.emotion.b"],
+             "faces_hands_addon.emotion.b": ["faces_hands_addon.face.c"],
+             "faces_hands_addon.face.c": ["faces_hands_addon.speech.d"], "faces_hands_addon.speech.d": []}
+    assert _cycles(_package_graph(graph)) == [["faces_hands_addon.emotion", "faces_hands_addon.face",
+                                               "faces_hands_addon.speech"]]

@@ -335,8 +335,8 @@ def test_compiled_muscle_deformation_matches_numpy(monkeypatch):
     muscles.set_rest_closing(rng.normal(size=muscles.rest.shape) * 0.002)   # parted rest lips (a fitted head)
     moved = 0.0
     for trial in range(12):
-        contraction = rng.uniform(-0.2, 1.2, len(muscles.names)) * (rng.uniform(size=len(muscles.names)) < 0.6)
-        protrusion = (0.0, rng.uniform(0.1, 1.3), rng.uniform(-1.3, -0.1))[trial % 3]
+        contraction = rng.uniform(0.0, 1.0, len(muscles.names)) * (rng.uniform(size=len(muscles.names)) < 0.6)
+        protrusion = (0.0, rng.uniform(0.1, 1.0), rng.uniform(-1.0, -0.1))[trial % 3]
         jaw = jaw_matrix(bones.tmj_pivot, bones.tmj_axis, *rng.uniform(-0.3, 1.0, 4),
                          glide=bones.jaw_glide) if trial % 2 else np.eye(4)
         compiled = muscles.deform(contraction, protrusion, jaw)

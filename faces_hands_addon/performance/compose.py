@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Animate Speech: lip sync plus non-verbal behaviour plus emotion, each on its own layer of a face rig.
+"""A performance: lip sync plus non-verbal behaviour plus emotion, each on its own layer of a face rig.
 
 Thesis 4.3.5: the speech-related and the emotional contractions of a face are summed (and clamped, which
 the layers' mixing rule does, ``anim.layers.mix``); the non-verbal signals that accompany speech (blinks,
@@ -9,7 +9,8 @@ emotions from the emoticons in the text (4.3.5, Table 4.1) and from an emotion f
 
 The take's ``tracks`` stay the speech layer; :func:`with_nonverbal` adds ``layers["behavior"]`` and
 ``layers["emotion"]``, and the behaviour's head channels (``head.pitch/yaw/roll``, radians) as ``head``:
-the face rig has no head joint, so the head turns as a whole, about the neck.
+the face rig has no head joint, so the head turns as a whole, about the neck. :func:`perform` composes
+them in order and lets speech own the lips where the layers conflict (:mod:`.priority`).
 """
 from __future__ import annotations
 
@@ -17,17 +18,24 @@ from dataclasses import replace
 
 import numpy as np
 
+from ..anim.take import Span, Take
 from ..anim.tracks import Track, TrackSet
+from ..behavior import generate_behavior
+from ..behavior.loudness import load_loudness_settings, loudness_curve, scale_tracks
 from ..core.errors import UserError
-from .takes import SpeechTake
+from ..emotion import emotion_point, emotion_tracks, emotion_windows, expression_for, load_model, voice_for
+from ..speech.articulation import load_articulation
+from ..speech.closures import lip_closures
+from ..speech.coarticulation import expand_segments
+from ..speech.takes import SpeechTake
+from .priority import load_priority, with_speech_priority
 
-__all__ = ["parse_emotion", "voice_settings", "with_nonverbal", "with_loudness"]
+__all__ = ["parse_emotion", "voice_settings", "with_nonverbal", "with_loudness", "perform", "take_of"]
 
 
 def parse_emotion(text: str | None):
     """``None``, a word of the emotion table (``"joy"``) or ``"activation,evaluation[,power]"`` (``"50,-20"``),
     checked (an unknown word or a bad point is a :class:`UserError` naming the choices)."""
-    from ..emotion import emotion_point
     if text is None or not str(text).strip():
         return None
     text = str(text).strip()
@@ -47,12 +55,10 @@ def voice_settings(emotion, rate: float, pitch: float = 50.0, volume: float = 10
     voice; no emotion: the voice unchanged."""
     if emotion is None:
         return {"rate": rate, "pitch": pitch, "volume": volume}
-    from ..emotion import voice_for
     return voice_for(emotion, {"rate": rate, "pitch": pitch, "volume": volume}).synthesize_kwargs()
 
 
 def _constant_expression(emotion, duration: float) -> TrackSet:
-    from ..emotion import expression_for
     tracks = TrackSet()
     times = np.array([0.0, max(duration, 1e-3)])
     for control, value in expression_for(emotion).items():
@@ -62,7 +68,6 @@ def _constant_expression(emotion, duration: float) -> TrackSet:
 
 def _winks(utterance, model) -> list[tuple[float, float]]:
     """(start, end) of every wink of the utterance's emoticons (";-)"), as :func:`emotion.wink_curve` times it."""
-    from ..emotion import emotion_windows
     spans = []
     for window in emotion_windows(utterance):
         wink = model.tags.get(window.emotion, {}).get("wink")
@@ -77,8 +82,6 @@ def with_nonverbal(take: SpeechTake, *, style: str | None = "neutral", seed: int
     """``take`` with a behaviour layer (``style`` from ``presets/behavior/styles.json``, every random choice
     from ``seed``; ``None``: no behaviour) and an emotion layer (the emoticons' emotions, plus ``emotion``
     for the whole take). Needs the muscle target (a face rig)."""
-    from ..behavior import generate_behavior
-    from ..emotion import emotion_tracks, load_model
     if take.target != "muscles":
         raise UserError("non-verbal behaviour and emotions need a face rig; viseme shape keys only lip-sync")
     layers = dict(take.layers)
@@ -105,7 +108,6 @@ def with_loudness(take: SpeechTake, settings=None) -> SpeechTake:
     relative loudness of its audio, each parameter by its own weight (4.2.1 "Volume-controlled
     Intensity", :mod:`..behavior.loudness`; the emotion layer is left alone). Returns the take and the
     curve as ``(take, loudness)``."""
-    from ..behavior.loudness import load_loudness_settings, loudness_curve, scale_tracks
     settings = settings or load_loudness_settings()
     curve = loudness_curve(take.utterance.samples, take.utterance.sample_rate, settings)
     layers = dict(take.layers)
@@ -114,3 +116,33 @@ def with_loudness(take: SpeechTake, settings=None) -> SpeechTake:
     tracks = scale_tracks(take.tracks, curve, settings, take.ranges)
     head = scale_tracks(take.head, curve, settings) if take.head is not None and len(take.head) else take.head
     return replace(take, tracks=tracks, layers=layers, head=head), curve
+
+
+def perform(take: SpeechTake, *, style: str | None = None, seed: int = 0, emotion=None,
+            loudness: bool = False) -> SpeechTake:
+    """The whole performance of a take: behaviour (``style``, seeded) and emotion layers when asked for or
+    when the text carries emoticons, the loudness of recorded audio on mouth, behaviour and head (4.2.1)
+    when ``loudness``, and finally speech's priority over the lips (:mod:`.priority`)."""
+    if style or emotion is not None or take.utterance.emotions:
+        take = with_nonverbal(take, style=style, seed=seed, emotion=emotion)
+    if loudness:
+        take, _ = with_loudness(take)
+    return with_speech_priority(take)
+
+
+def take_of(performed: SpeechTake, articulations=None) -> Take:
+    """The bake's plain-data take (:class:`..anim.take.Take`) of a performed speech take: its layers (speech
+    + behaviour + emotion), head motion, lip closures (3.1.3) and the closure-phase articulations (/p b m f v/)
+    with the controls speech owns during them (:mod:`.priority`)."""
+    articulations = load_priority() if articulations is None else articulations
+    layers = {"speech": performed.tracks, **performed.layers} if performed.target == "muscles" else {}
+    closures = tuple(Span(c.start, c.end, c.viseme) for c in lip_closures(performed.utterance.phones))
+    targets = load_articulation()
+    owned = []
+    for segment in expand_segments(performed.utterance, targets):
+        if segment.phase != "closure" or segment.duration <= 0:
+            continue
+        for articulation in articulations:
+            if targets.class_of.get(segment.phone) in articulation.classes:
+                owned.append((Span(segment.start, segment.end, articulation.name), frozenset(articulation.owns)))
+    return Take(layers, performed.duration, performed.head, closures, tuple(owned))

@@ -19,15 +19,18 @@ from ...faces_hands_addon.anim.layers import BASE_LAYER, LAYERS, DriverExpressio
 from ...faces_hands_addon.core.controls import ControlSpec
 from ...faces_hands_addon.core.errors import UserError
 from . import fcurves
+from ...names import CONTROL_PREFIX, control_property
+from ...names import layer_prefix as names_layer_prefix
 
 __all__ = ["LAYERS", "prop_name", "data_path", "layer_prefix", "ensure_property", "ensure_controls",
-           "reset_controls", "layer_values", "available_layers", "sample_layers", "add_mixed_driver"]
+           "reset_controls", "layer_values", "available_layers", "sample_layers", "add_mixed_driver",
+           "curves_evaluate_exactly"]
 
 
 def prop_name(control: str, layer: str = BASE_LAYER) -> str:
     if layer not in LAYERS:
         raise ValueError(f"unknown control layer {layer!r}")
-    return f"fh.{layer}.{control}"
+    return control_property(control, layer)
 
 
 def data_path(control: str, layer: str = BASE_LAYER) -> str:
@@ -36,7 +39,7 @@ def data_path(control: str, layer: str = BASE_LAYER) -> str:
 
 def layer_prefix(layer: str) -> str:
     """Data-path prefix shared by every control of ``layer`` (for replacing a whole take)."""
-    return f'["fh.{layer}.'
+    return f'["{names_layer_prefix(layer)}'
 
 
 def _one_line(text: str) -> str:
@@ -104,7 +107,7 @@ def available_layers(obj, controls) -> set[tuple[str, str]]:
     return {(c, layer) for c in controls for layer in LAYERS if prop_name(c, layer) in keys}
 
 
-def _curves_evaluate_exactly(obj, scene) -> bool:
+def curves_evaluate_exactly(obj, scene) -> bool:
     """Can the layer F-curves be evaluated directly (the same numbers a frame change would give)? Only with
     one plain action: no NLA, full influence, replace mode, no time remapping, no drivers on the layers."""
     anim = obj.animation_data
@@ -116,7 +119,7 @@ def _curves_evaluate_exactly(obj, scene) -> bool:
         return False
     if scene.render.frame_map_old != scene.render.frame_map_new:
         return False
-    if any(d.data_path.startswith('["fh.') for d in anim.drivers):
+    if any(d.data_path.startswith(f'["{CONTROL_PREFIX}.') for d in anim.drivers):
         return False
     action = anim.action
     if action is not None:
@@ -128,17 +131,17 @@ def _curves_evaluate_exactly(obj, scene) -> bool:
 
 
 def sample_layers(obj, scene, specs: Mapping[str, ControlSpec], frames, method: str = "auto",
-                  lead: float = 0.0) -> LayerTable:
-    """Every layer of every control at ``frames``, as plain arrays a bake walks without asking Blender
-    again. F-curves are evaluated directly where that gives the same values as playing the scene
-    (``method="auto"``); otherwise (NLA, drivers, blending) or with ``method="frames"`` each frame is set
-    once and the properties read. ``lead`` (frames, may be fractional) gives each row the values that much
-    later: a simulation fed them ahead of time shows them on time despite its response delay."""
+                  lead: float = 0.0, layers=LAYERS) -> LayerTable:
+    """``layers`` of every control at ``frames`` as the scene plays them: what the artist's F-curves show,
+    for a take filled from them (``takes.take_for_bake``). F-curves are evaluated directly where that gives
+    the same values as playing the scene (``method="auto"``); otherwise (NLA, drivers, blending) or with
+    ``method="frames"`` each frame is set once and the properties read. ``lead`` (frames, may be
+    fractional) gives each row the values that much later."""
     controls = tuple(specs)
     frames = np.asarray(list(frames), dtype=np.int64)
     keys = set(obj.keys())
     values = {}
-    for layer in LAYERS:
+    for layer in layers:
         table = np.zeros((len(frames), len(controls)))
         for column, control in enumerate(controls):
             name = prop_name(control, layer)
@@ -147,10 +150,10 @@ def sample_layers(obj, scene, specs: Mapping[str, ControlSpec], frames, method: 
         values[layer] = table
     if method not in ("auto", "frames"):
         raise ValueError(f"unknown sampling method {method!r}")
-    if method == "auto" and _curves_evaluate_exactly(obj, scene):
+    if method == "auto" and curves_evaluate_exactly(obj, scene):
         bag = fcurves.existing_channelbag(obj)
         curves = {fc.data_path: fc for fc in (bag.fcurves if bag else []) if fc.array_index == 0 and not fc.mute}
-        for layer in LAYERS:
+        for layer in layers:
             for column, control in enumerate(controls):
                 curve = curves.get(data_path(control, layer))
                 if curve is not None:
@@ -162,7 +165,7 @@ def sample_layers(obj, scene, specs: Mapping[str, ControlSpec], frames, method: 
             at = float(frame) + lead
             scene.frame_set(int(np.floor(at)), subframe=float(at - np.floor(at)))
             current = layer_values(obj, controls)
-            for layer in LAYERS:
+            for layer in layers:
                 for column, control in enumerate(controls):
                     if control in current[layer]:
                         values[layer][row, column] = current[layer][control]

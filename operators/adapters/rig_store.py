@@ -15,18 +15,12 @@ import numpy as np
 
 from ...faces_hands_addon.core.errors import UserError
 from ...faces_hands_addon.core.rig import load_rig_bytes, rig_identity, save_rig
+from ...names import OUTPUT_TO_LOCAL, PART_ROLE, RIG_CONTROLS, RIG_DATA, RIG_ID, RIG_KIND, RIG_MARKER
 
 __all__ = ["RIG_MARKER", "RIG_DATA", "RIG_KIND", "RIG_ID", "RIG_CONTROLS", "OUTPUT_TO_LOCAL", "PART_ROLE",
            "store_rig", "get_rig", "is_rig", "rig_of", "parts", "find_rig", "output_to_local", "to_local",
            "to_world", "rig_controls"]
 
-RIG_MARKER = "fh_rig"
-RIG_DATA = "fh_rig_data"
-RIG_KIND = "fh_rig_kind"
-RIG_ID = "fh_rig_id"
-RIG_CONTROLS = "fh_rig_controls"    # JSON: [[name, group, kind], ...] for the panel (no engine needed)
-OUTPUT_TO_LOCAL = "fh_head_to_local"  # 16 floats (row-major): rig output coordinates -> the object's local space
-PART_ROLE = "fh_part"               # on every part object: "skull", "jaw", "eye_L", ..., "muscles"
 
 _cache: dict[int, tuple[str, object]] = {}
 

@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import bpy
 
-from .export import ExportOptions
-from .paths import output_folder
+from ..adapters.export import ExportOptions
+from ..adapters.paths import output_folder
 
 __all__ = ["SaveFileOperator", "ExportRigOperator"]
 

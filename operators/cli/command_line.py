@@ -14,11 +14,11 @@ import sys
 import time
 import traceback
 
-from ..faces_hands_addon.core.errors import UserError
-from ..faces_hands_addon.core.foreign_files import check_path
-from .common.interrupts import Terminated, clear, interruptible, private_temp_root, raise_pending
-from .common.outputs import ledger_mark, written_since
-from .common.paths import write_session_bytecode
+from ...faces_hands_addon.core.errors import UserError
+from ...faces_hands_addon.core.foreign_files import check_path
+from .interrupts import Terminated, clear, interruptible, private_temp_root, raise_pending
+from ..adapters.outputs import ledger_mark, written_since
+from ..adapters.paths import write_session_bytecode
 
 
 class CommandLineError(Exception):
@@ -65,7 +65,7 @@ class Progress:
 
 
 def _subcommands():
-    from . import COMMANDS
+    from .. import COMMANDS
     return COMMANDS
 
 

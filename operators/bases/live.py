@@ -11,10 +11,10 @@ import time
 import bpy
 
 from ...faces_hands_addon.core.errors import UserError
-from . import controls
-from .poses import push_pose
-from .rig_store import get_rig, rig_of
-from .timing import frame_duration
+from ..adapters import controls
+from ..adapters.poses import push_pose
+from ..adapters.rig_store import get_rig, rig_of
+from ..adapters.timing import frame_duration
 
 __all__ = ["live_step", "live_object", "LiveSimulationOperator"]
 
