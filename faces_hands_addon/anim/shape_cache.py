@@ -31,6 +31,7 @@ __all__ = ["ShapeCache", "FORMAT", "MAX_BYTES", "engine_fingerprint"]
 FORMAT = 1
 MAX_BYTES = 512 * 1024 * 1024
 _ENTRY_LIMIT = 64 * 1024 * 1024      # one shape's file; anything larger is not ours
+_TMP_PREFIX = ".fh-shape-"           # an entry being written (renamed into place when whole)
 
 
 def engine_fingerprint() -> str:
@@ -99,12 +100,23 @@ class ShapeCache:
             self._prune()
 
     def _prune(self) -> None:
-        entries = sorted(self.folder.glob("*.npz"), key=lambda p: p.stat().st_mtime)
-        total = sum(p.stat().st_size for p in entries)
-        for entry in entries:
+        """Remove the oldest entries past ``MAX_BYTES``. Several processes share the folder (jobs workers):
+        another's file in the making is left alone, and one that vanishes meanwhile is skipped."""
+        entries = []
+        for entry in self.folder.glob("*.npz"):
+            if entry.name.startswith(_TMP_PREFIX):
+                continue
+            try:
+                stat = entry.stat()
+            except OSError:
+                continue
+            entries.append((stat.st_mtime, stat.st_size, entry))
+        entries.sort(key=lambda item: item[0])
+        total = sum(size for _, size, _ in entries)
+        for _, size, entry in entries:
             if total <= MAX_BYTES:
                 break
-            total -= entry.stat().st_size
+            total -= size
             entry.unlink(missing_ok=True)
 
 
@@ -138,7 +150,7 @@ def _write(path: Path, pose: Pose) -> None:
         path.parent.mkdir(parents=True, exist_ok=True)
         arrays = {f"positions/{role}": a for role, a in pose.positions.items()}
         arrays.update({f"transforms/{role}": a for role, a in pose.transforms.items()})
-        handle, tmp = tempfile.mkstemp(prefix=".fh-shape-", suffix=".npz", dir=path.parent)
+        handle, tmp = tempfile.mkstemp(prefix=_TMP_PREFIX, suffix=".npz", dir=path.parent)
     except OSError:
         return                                   # a read-only or full cache folder only costs time
     try:

@@ -14,10 +14,10 @@ from .expressions import (BasicExpression, EmotionModel, expression_for, face_sp
                           mixed_expression, scaled_expression)
 from .timeline import EmotionWindow, emotion_tracks, emotion_windows, intensity, wink_curve
 from .voice import TABLE_4_5, VoiceSettings, prosody_changes, voice_for
-from .words import DISK_RADIUS, EmotionPoint, emotion_point, from_polar, load_words, polar
+from .words import DISK_RADIUS, EmotionPoint, emotion_point, from_polar, load_words, parse_emotion, polar
 
 __all__ = [
-    "EmotionPoint", "load_words", "emotion_point", "polar", "from_polar", "DISK_RADIUS",
+    "EmotionPoint", "load_words", "emotion_point", "parse_emotion", "polar", "from_polar", "DISK_RADIUS",
     "BasicExpression", "EmotionModel", "load_model", "face_specs", "scaled_expression", "mixed_expression",
     "expression_for",
     "TABLE_4_5", "VoiceSettings", "prosody_changes", "voice_for",

@@ -19,7 +19,8 @@ from dataclasses import dataclass
 from ..core.errors import UserError
 from ..core.presets import NUMBER, PresetFormat, read_preset, register_format
 
-__all__ = ["FORMAT", "DISK_RADIUS", "EmotionPoint", "load_words", "emotion_point", "polar", "from_polar"]
+__all__ = ["FORMAT", "DISK_RADIUS", "EmotionPoint", "load_words", "emotion_point", "polar", "from_polar",
+           "parse_emotion"]
 
 FORMAT = register_format(PresetFormat(
     "faces_hands.emotion_words", 1, required=("words",),
@@ -121,3 +122,20 @@ def emotion_point(emotion, words: dict[str, EmotionPoint] | None = None) -> Emot
         raise UserError(f"an emotion point needs 2 or 3 finite numbers (activation, evaluation[, power]), "
                         f"not {emotion!r}")
     return EmotionPoint(*values)
+
+
+def parse_emotion(text: str | None):
+    """``None``, a word of the emotion table (``"joy"``) or ``"activation,evaluation[,power]"`` (``"50,-20"``),
+    checked (an unknown word or a bad point is a :class:`UserError` naming the choices)."""
+    if text is None or not str(text).strip():
+        return None
+    text = str(text).strip()
+    if any(ch.isdigit() for ch in text) and "," in text:
+        try:
+            values = tuple(float(v) for v in text.split(","))
+        except ValueError:
+            raise UserError(f"--emotion {text!r}: give a word or activation,evaluation (two numbers)") from None
+        emotion_point(values)
+        return values
+    emotion_point(text)
+    return text.lower()

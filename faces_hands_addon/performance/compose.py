@@ -23,31 +23,14 @@ from ..anim.tracks import Track, TrackSet
 from ..behavior import generate_behavior
 from ..behavior.loudness import load_loudness_settings, loudness_curve, scale_tracks
 from ..core.errors import UserError
-from ..emotion import emotion_point, emotion_tracks, emotion_windows, expression_for, load_model, voice_for
+from ..emotion import emotion_tracks, emotion_windows, expression_for, load_model, voice_for
 from ..speech.articulation import load_articulation
 from ..speech.closures import lip_closures
 from ..speech.coarticulation import expand_segments
 from ..speech.takes import SpeechTake
 from .priority import load_priority, with_speech_priority
 
-__all__ = ["parse_emotion", "voice_settings", "with_nonverbal", "with_loudness", "perform", "take_of"]
-
-
-def parse_emotion(text: str | None):
-    """``None``, a word of the emotion table (``"joy"``) or ``"activation,evaluation[,power]"`` (``"50,-20"``),
-    checked (an unknown word or a bad point is a :class:`UserError` naming the choices)."""
-    if text is None or not str(text).strip():
-        return None
-    text = str(text).strip()
-    if any(ch.isdigit() for ch in text) and "," in text:
-        try:
-            values = tuple(float(v) for v in text.split(","))
-        except ValueError:
-            raise UserError(f"--emotion {text!r}: give a word or activation,evaluation (two numbers)") from None
-        emotion_point(values)
-        return values
-    emotion_point(text)
-    return text.lower()
+__all__ = ["voice_settings", "with_nonverbal", "with_loudness", "perform", "take_of"]
 
 
 def voice_settings(emotion, rate: float, pitch: float = 50.0, volume: float = 100.0) -> dict[str, float]:
@@ -132,17 +115,19 @@ def perform(take: SpeechTake, *, style: str | None = None, seed: int = 0, emotio
 
 def take_of(performed: SpeechTake, articulations=None) -> Take:
     """The bake's plain-data take (:class:`..anim.take.Take`) of a performed speech take: its layers (speech
-    + behaviour + emotion), head motion, lip closures (3.1.3) and the closure-phase articulations (/p b m f v/)
-    with the controls speech owns during them (:mod:`.priority`)."""
+    + behaviour + emotion), head motion, lip closures (3.1.3) and the spans of the exclusive articulations
+    (the jaw while speaking, /p b m/, /f v/; ramps included) with the controls speech owns there
+    (:mod:`.priority`)."""
     articulations = load_priority() if articulations is None else articulations
     layers = {"speech": performed.tracks, **performed.layers} if performed.target == "muscles" else {}
     closures = tuple(Span(c.start, c.end, c.viseme) for c in lip_closures(performed.utterance.phones))
     targets = load_articulation()
     owned = []
     for segment in expand_segments(performed.utterance, targets):
-        if segment.phase != "closure" or segment.duration <= 0:
+        if segment.phase == "release" or segment.duration <= 0:
             continue
         for articulation in articulations:
-            if targets.class_of.get(segment.phone) in articulation.classes:
-                owned.append((Span(segment.start, segment.end, articulation.name), frozenset(articulation.owns)))
+            if articulation.exclusive and targets.class_of.get(segment.phone) in articulation.classes:
+                span = Span(segment.start - articulation.lead_s, segment.end + articulation.lag_s, articulation.name)
+                owned.append((span, frozenset(articulation.owns)))
     return Take(layers, performed.duration, performed.head, closures, tuple(owned))

@@ -20,7 +20,12 @@ leaves the layering of 4.3.5 everywhere else:
   measured that the simulated lips need up to 0.2 s to close from an open vowel (``anim.closure_drive``),
   and a jaw that snaps back within a frame after each /v/ never lets them meet;
 * every control an articulation does not own keeps the emotion (a smile stays on the cheeks and the mouth
-  corners during /m/), and between articulations the layers sum as before.
+  corners during /m/), and between articulations the layers sum as before;
+* an **exclusive** articulation (the jaw while speaking, the closures, the labiodental contact) also holds
+  in the exported weights: over its span (ramps included, which also covers an aligner placing a phone a
+  frame or two off) the other layers are shown only by targets that leave its controls alone
+  (``anim.semantic.semantic_weights``), since in an engine targets add: the named ``smile`` carries a
+  little jaw, ``surprise`` a lot, and either would part a /p/.
 
 The speech layer itself is never changed; neither is the artist's ``ctrl`` layer.
 """
@@ -45,7 +50,7 @@ __all__ = ["FORMAT", "Articulation", "load_priority", "ownership", "with_speech_
 FORMAT = register_format(PresetFormat(
     "faces_hands.speech_priority", 1, required=("articulations",),
     shape={"about": str, "articulations": {str: {"about": str, "classes": [str], "lead_s": NUMBER,
-                                                 "lag_s": NUMBER, "owns": {str: NUMBER}}}}))
+                                                 "lag_s": NUMBER, "exclusive": bool, "owns": {str: NUMBER}}}}))
 PRESET = "performance/speech_priority.json"
 #: the layers whose owned controls give way to speech (the artist's ``ctrl`` layer is never touched)
 LAYERS_UNDER_SPEECH = ("behavior", "emotion")
@@ -62,6 +67,7 @@ class Articulation:
     lead_s: float
     lag_s: float
     owns: Mapping[str, float]
+    exclusive: bool = False     # in an exported take no target that moves an owned control shows the other layers
 
 
 def _expanded(owns: Mapping[str, float], known: set[str], source: str, name: str) -> dict[str, float]:
@@ -94,7 +100,7 @@ def load_priority(known_controls: Sequence[str] | None = None) -> tuple[Articula
         if not (0.0 <= lead <= 1.0 and 0.0 <= lag <= 1.0):
             raise UserError(f"{source}: {name}: lead_s and lag_s must be in [0, 1] s")
         out.append(Articulation(str(name), tuple(entry["classes"]), lead, lag,
-                                _expanded(entry["owns"], known, source, name)))
+                                _expanded(entry["owns"], known, source, name), bool(entry.get("exclusive", False))))
     return tuple(out)
 
 

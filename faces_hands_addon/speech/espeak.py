@@ -345,6 +345,13 @@ def _select_voice(lib, voice: str) -> None:
     _check_dictionary(lib, voice)
 
 
+def check_voice(voice: str) -> None:
+    """Refuse a voice espeak-ng lacks or cannot speak, before any synthesis (a jobs manifest checks each of
+    its voices once, up front)."""
+    with _LOCK, _fresh_engine() as lib:
+        _select_voice(lib, voice)
+
+
 def synthesize_raw(text: str, voice: str = "en-us", rate: float = 175, pitch: float = 50,
                    volume: float = 100, ipa_names: bool = False) -> RawSynthesis:
     """Synthesise ``text`` and return its int16 audio with every phoneme/word/sentence event.

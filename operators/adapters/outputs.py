@@ -12,6 +12,7 @@ import tempfile
 from pathlib import Path
 
 from ...faces_hands_addon.core.errors import UserError
+from ...faces_hands_addon.core.files import FileClaims
 
 
 def check_output_path(path: str | os.PathLike, suffixes: tuple[str, ...]) -> Path:
@@ -80,6 +81,12 @@ def written_since(mark: int) -> list[Path]:
     return list(_LEDGER[mark:])
 
 
+def note_written(paths) -> None:
+    """Record files another process moved into place for this command (a jobs worker's rows), so an
+    interrupted command names them too."""
+    _LEDGER.extend(Path(p) for p in paths)
+
+
 def same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
     """``a`` and ``b`` name the same file (same resolved path, or the same inode through a link)."""
     a, b = Path(a).expanduser(), Path(b).expanduser()
@@ -91,18 +98,25 @@ def same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
         return False
 
 
-def refuse_collisions(outputs: dict[str, Path], inputs: dict[str, Path]) -> None:
-    """Refuse when an output would replace an input or another output (``label -> path`` each)."""
-    named_outputs = [(label, path) for label, path in outputs.items() if path is not None]
-    for label, path in named_outputs:
-        for input_label, source in inputs.items():
-            if source is not None and same_file(path, source):
-                raise UserError(f"{label} {path} would replace the input {input_label} {source}; "
+def refuse_collisions(outputs: dict[str, Path], inputs: dict[str, Path], folders: dict | None = None) -> None:
+    """Refuse when an output would replace an input or another output (``label -> path`` each); every
+    path is resolved once (``FileClaims``; ``folders``: resolved folders shared by the rows of a jobs CSV),
+    not once per pair."""
+    known = FileClaims(folders)
+    for label, source in inputs.items():
+        if source is not None:
+            known.add(source, (True, label, source))
+    for label, path in outputs.items():
+        if path is None:
+            continue
+        owner = known.owner(path)
+        if owner is not None:
+            is_input, other_label, other = owner
+            if is_input:
+                raise UserError(f"{label} {path} would replace the input {other_label} {other}; "
                                 "choose another output name")
-    for index, (label, path) in enumerate(named_outputs):
-        for other_label, other in named_outputs[:index]:
-            if same_file(path, other):
-                raise UserError(f"{label} and {other_label} are the same file {path}")
+            raise UserError(f"{label} and {other_label} are the same file {path}")
+        known.add(path, (False, label, path))
 
 
 @contextlib.contextmanager

@@ -21,6 +21,7 @@ __all__ = ["user_preset_folder", "preset_folder", "preferences", "output_folder"
 _CACHE_FOLDER: list[Path | None] = [None]
 _PACKAGE: list[str | None] = [None]
 NO_CACHE_VARIABLE = "FH_NO_SHAPE_CACHE"     # set to 1 to simulate every target afresh (cold benchmarks)
+CACHE_DIR_VARIABLE = "FH_CACHE_DIR"         # a cache folder that outlives a farm session's user folder
 
 
 def user_preset_folder(package: str) -> Path | None:
@@ -63,11 +64,15 @@ def default_voice() -> str:
 def configure_presets(package: str | None) -> None:
     """Point the engine's preset resolver at the preset folder of ``package`` (at registration and when the
     preference changes), or back at the shipped presets only (``None``, at unregistration); the same for
-    the shape cache and the compiled simulation kernel (numba cache)."""
+    the shape cache and the compiled simulation kernel (numba cache): under ``$FH_CACHE_DIR`` when set
+    (a farm job's sessions each get a new user folder; a folder of the worker's keeps the cache warm)."""
     _PACKAGE[0] = package
     presets.set_user_folder(preset_folder(package) if package else None)
     folder = None
-    if package:
+    if package and os.environ.get(CACHE_DIR_VARIABLE):
+        folder = Path(os.environ[CACHE_DIR_VARIABLE]) / "shapes"
+        folder.mkdir(parents=True, exist_ok=True)
+    elif package:
         try:
             folder = Path(bpy.utils.extension_path_user(package, path="cache/shapes", create=True))
         except (ValueError, RuntimeError, TypeError):

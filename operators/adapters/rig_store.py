@@ -18,7 +18,7 @@ from ...faces_hands_addon.core.rig import load_rig_bytes, rig_identity, save_rig
 from ...names import OUTPUT_TO_LOCAL, PART_ROLE, RIG_CONTROLS, RIG_DATA, RIG_ID, RIG_KIND, RIG_MARKER
 
 __all__ = ["RIG_MARKER", "RIG_DATA", "RIG_KIND", "RIG_ID", "RIG_CONTROLS", "OUTPUT_TO_LOCAL", "PART_ROLE",
-           "store_rig", "get_rig", "is_rig", "rig_of", "parts", "find_rig", "output_to_local", "to_local",
+           "store_rig", "get_rig", "adopt_rig", "is_rig", "rig_of", "parts", "find_rig", "output_to_local", "to_local",
            "to_world", "rig_controls"]
 
 
@@ -54,6 +54,14 @@ def get_rig(obj, kind: str | None = None):
     rig = load_rig_bytes(data, identity if identity != "unnamed" else rig_identity(data))
     _cache[obj.session_uid] = (identity, rig)
     return rig
+
+
+def adopt_rig(obj, rig) -> None:
+    """Use the engine ``rig``, already loaded, for ``obj``, which stores the same rig (same identity): a
+    batch worker that reopens one rig file for every row then loads the engine rig once, not per row."""
+    if obj.get(RIG_ID) != rig.identity:
+        raise UserError(f"'{obj.name}' stores another rig than the one loaded")
+    _cache[obj.session_uid] = (rig.identity, rig)
 
 
 def is_rig(obj, kind: str | None = None) -> bool:

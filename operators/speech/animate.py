@@ -31,7 +31,7 @@ def check_inputs(kind: str, source: str, text: str, path: str, style: str | None
     of an allowed length, a known style, a known emotion. Returns ``(style, emotion)``."""
     from ...faces_hands_addon.behavior.styles import load_style
     from ...faces_hands_addon.speech.audio import audio_header
-    from ...faces_hands_addon.performance import parse_emotion
+    from ...faces_hands_addon.emotion import parse_emotion
     if kind != "muscles":
         raise UserError("Animate Speech needs a Faces & Hands face rig (behaviour and emotion drive its "
                         "muscles); for a mesh with viseme shape keys use Speak Text or Lip Sync Audio")

@@ -13,19 +13,20 @@ from __future__ import annotations
 
 import csv
 import io
-import math
 import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from ...faces_hands_addon.core.errors import UserError
+from ...faces_hands_addon.core.files import FileClaims
 from ...faces_hands_addon.core.foreign_files import read_text
+from ...faces_hands_addon.farm.rows import Once, number_field
 from ...faces_hands_addon.speech.audio import audio_header, written_here
 from ...faces_hands_addon.speech.espeak import RATE_RANGE
 from ...faces_hands_addon.speech.takes import check_text_length, estimated_seconds
+from ..adapters.outputs import check_output_path, ledger_mark, refuse_collisions, written, written_since
 from ..bases.bake import MAX_FRAMES
 from ..cli.interrupts import raise_pending
-from ..adapters.outputs import check_output_path, ledger_mark, refuse_collisions, same_file, written, written_since
 from ..face.sheet import VIEWS
 
 __all__ = ["OUT_SUFFIXES", "COLUMNS", "checked_spec", "read_jobs", "run_jobs"]
@@ -35,18 +36,6 @@ COLUMNS = ("out", "text", "audio", "transcript", "voice", "rate", "sheet", "view
            "cues", "style", "seed", "emotion")
 ANIMATIONS = ("weights", "frames")
 MAX_JOBS_BYTES = 200_000_000
-
-
-def _number(label: str, value, default: float, bounds: tuple[float, float]) -> float:
-    if value is None or (isinstance(value, str) and not value.strip()):
-        return float(default)
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        raise UserError(f"{label} {value!r} is not a number") from None
-    if not math.isfinite(number) or not bounds[0] <= number <= bounds[1]:
-        raise UserError(f"{label} {value!r} is outside {bounds[0]:g}..{bounds[1]:g}")
-    return number
 
 
 def _optional_path(spec: dict, key: str, suffixes) -> Path | None:
@@ -60,22 +49,25 @@ def _check_wav(wav: Path, overwrite: bool) -> None:
                         "another output name, or pass --overwrite to replace it")
 
 
-def _nonverbal(spec: dict):
+def _nonverbal(spec: dict, once: Once):
     """(style or None, seed, emotion or None) of a take, checked: a style of the styles preset, a whole
     seed >= 0, an emotion word of the table or an activation,evaluation point."""
     from ...faces_hands_addon.behavior.styles import load_style
-    from ...faces_hands_addon.performance import parse_emotion
+    from ...faces_hands_addon.emotion import parse_emotion
     style = spec.get("style") or None
     if style is not None:
-        load_style(style)
-    seed = _number("seed", spec.get("seed"), 0, (0, 2 ** 32 - 1))
+        once("style", style, load_style)
+    seed = number_field("seed", spec.get("seed"), 0, (0, 2 ** 32 - 1))
     if seed != int(seed):
         raise UserError(f"seed {spec.get('seed')!r} is not a whole number")
-    return style, int(seed), parse_emotion(spec.get("emotion"))
+    emotion = spec.get("emotion")
+    return style, int(seed), once("emotion", str(emotion), lambda _: parse_emotion(emotion))
 
 
-def checked_spec(raw: dict, fps: float, rig_path=None, jobs_path=None, overwrite: bool = False) -> dict:
-    """The take ``raw`` (out, text or audio, ...) checked and normalised, before any expensive work."""
+def checked_spec(raw: dict, fps: float, rig_path=None, jobs_path=None, overwrite: bool = False,
+                 once: Once | None = None) -> dict:
+    """The take ``raw`` (out, text or audio, ...) checked and normalised, before any expensive work;
+    ``once``: the checks of a jobs CSV's values, kept from row to row."""
     spec = {k: (v.strip() if isinstance(v, str) else v) for k, v in raw.items() if k}
     if not spec.get("out"):
         raise UserError("no output: the 'out' column (--out) is empty")
@@ -97,8 +89,8 @@ def checked_spec(raw: dict, fps: float, rig_path=None, jobs_path=None, overwrite
     if live_link is not None and animation != "weights":
         raise UserError("a Live Link CSV needs the weights animation (leave out --animation frames)")
     cues = _optional_path(spec, "cues", (".tsv", ".txt", ".json"))
-    rate = _number("rate", spec.get("rate"), 175, RATE_RANGE)
-    style, seed, emotion = _nonverbal(spec)
+    rate = number_field("rate", spec.get("rate"), 175, RATE_RANGE)
+    style, seed, emotion = _nonverbal(spec, once or Once())
     if audio:
         seconds = audio_header(audio).duration          # exists, readable, within the length limit
     else:
@@ -113,7 +105,7 @@ def checked_spec(raw: dict, fps: float, rig_path=None, jobs_path=None, overwrite
                "the mouth cues": cues}
     refuse_collisions(outputs, {"audio": Path(audio) if audio else None,
                                 "rig": Path(rig_path) if rig_path else None,
-                                "jobs file": Path(jobs_path) if jobs_path else None})
+                                "jobs file": Path(jobs_path) if jobs_path else None}, once and once.folders)
     _check_wav(wav, overwrite)
     spec.update(out=str(out), text=text, audio=audio or None, rate=rate, animation=animation, view=view,
                 live_link=live_link, cues=cues, style=style, seed=seed, emotion=emotion, outputs=[p for p in outputs.values() if p is not None])
@@ -168,20 +160,25 @@ class BatchReport:
 
 
 def _check_rows(rows: list[dict], fps, rig_path, jobs_path, overwrite, report: BatchReport) -> dict[int, dict]:
-    """Check every row before any work; a row that writes what an earlier row writes or reads fails."""
-    inputs = {n: Path(r["audio"].strip()) for n, r in enumerate(rows, start=2) if (r.get("audio") or "").strip()}
-    specs, claimed = {}, {}
+    """Check every row before any work; a row that writes what an earlier row writes or reads fails (linear
+    in the rows: files are claimed in ``FileClaims``, the jobs manifests' check)."""
+    once = Once()
+    inputs = FileClaims(once.folders)
+    for number, row in enumerate(rows, start=2):
+        if (row.get("audio") or "").strip():
+            inputs.add(row["audio"].strip(), number)
+    specs, claimed = {}, FileClaims(once.folders)
     for number, row in enumerate(rows, start=2):
         try:
-            spec = checked_spec(row, fps, rig_path, jobs_path, overwrite)
+            spec = checked_spec(row, fps, rig_path, jobs_path, overwrite, once)
             for path in spec["outputs"]:
-                owner = next((n for p, n in claimed.items() if same_file(p, path)), None)
-                reader = next((n for n, source in inputs.items() if same_file(source, path)), None)
+                owner, reader = claimed.owner(path), inputs.owner(path)
                 if owner is not None:
                     raise UserError(f"writes {path}, which row {owner} writes too")
                 if reader is not None:
                     raise UserError(f"writes {path}, which is the audio input of row {reader}")
-            claimed.update({path: number for path in spec["outputs"]})
+            for path in spec["outputs"]:
+                claimed.add(path, number)
             specs[number] = spec
         except UserError as error:
             report.fail(number, (row.get("out") or "").strip(), str(error))

@@ -42,7 +42,7 @@ def _speech_settings(context):
 def _nonverbal(settings, kind: str):
     """(style or None, seed, emotion or None) from the panel, checked before the slow part; viseme shape
     keys only lip-sync."""
-    from ...faces_hands_addon.performance import parse_emotion
+    from ...faces_hands_addon.emotion import parse_emotion
     if kind != "muscles":
         return None, 0, None
     style = None if settings.behavior_style in ("", "NONE") else settings.behavior_style

@@ -14,7 +14,7 @@ from ...faces_hands_addon.core.errors import UserError
 from ..adapters.blendfile import open_blend
 from ..adapters.export import save_or_export
 from ..adapters.outputs import atomic_output
-from ..adapters.rig_store import find_rig
+from ..adapters.rig_store import adopt_rig, find_rig
 from ..adapters.targets import write_live_link
 from ..adapters.timing import scene_fps, set_scene_fps
 from ..face import services as face, sheet
@@ -24,8 +24,9 @@ from . import apply, head as head_motion
 __all__ = ["run_line", "shared_default_rig", "phoneme_cells"]
 
 
-def _prepare_rig(rig_path: str | None, fps: float, progress):
-    """The face rig of ``rig_path`` (or a new default head), with the scene at ``fps``."""
+def _prepare_rig(rig_path: str | None, fps: float, progress, engine_rig=None):
+    """The face rig of ``rig_path`` (or a new default head), with the scene at ``fps``; ``engine_rig``: the
+    file's engine rig, already loaded (a jobs worker reopens the file for every row, loads the rig once)."""
     try:
         check_fps(fps)
     except UserError:
@@ -33,6 +34,8 @@ def _prepare_rig(rig_path: str | None, fps: float, progress):
     if rig_path:
         open_blend(rig_path)
         rig_obj = find_rig(bpy.data.objects, kind=face.KIND)
+        if engine_rig is not None:
+            adopt_rig(rig_obj, engine_rig)
     else:
         rig_obj = face.build_default_rig_object(progress)
     set_scene_fps(bpy.context.scene, fps)
@@ -108,9 +111,9 @@ def write_cues(take, path: Path, sound_file: str = "") -> Path:
     return path
 
 
-def run_line(spec: dict, rig_path, fps, progress) -> list[Path]:
+def run_line(spec: dict, rig_path, fps, progress, engine_rig=None) -> list[Path]:
     """One take, ``spec`` as ``batch.checked_spec`` returns it: out and text (+voice, rate) or audio
-    (+transcript, language in ``voice``)."""
+    (+transcript, language in ``voice``); ``engine_rig``: ``rig_path``'s engine rig, already loaded."""
     from ...faces_hands_addon.speech.takes import take_from_audio, take_from_text
     out = Path(spec["out"])
     sheet_path = Path(spec["sheet"]) if spec.get("sheet") else None
@@ -131,7 +134,7 @@ def run_line(spec: dict, rig_path, fps, progress) -> list[Path]:
     # recorded speech: mouth, brows and head scaled by its loudness (4.2.1)
     take = perform(take, style=spec.get("style"), seed=int(spec.get("seed") or 0), emotion=emotion,
                    loudness=bool(spec.get("audio")))
-    rig_obj = _prepare_rig(rig_path, fps, progress)
+    rig_obj = _prepare_rig(rig_path, fps, progress, engine_rig)
     _bake_take(rig_obj, take, progress, spec["animation"])
     return _write_outputs(rig_obj, take, out, sheet_path, progress, spec.get("audio"), spec["view"],
                           spec.get("extra_sheets", ()), spec.get("live_link"), spec.get("wav", True),

@@ -13,7 +13,7 @@ import pytest
 
 BLENDER_MODULES = {"bpy", "mathutils", "bmesh", "bpy_extras", "gpu", "addon_utils"}
 SUBSYSTEM_PACKAGES = ("operators.face", "operators.speech", "operators.general", "operators.hand",
-                      "operators.morph", "operators.behavior")
+                      "operators.morph", "operators.behavior", "operators.farm")
 SHARED_ROOMS = ("operators.adapters", "operators.bases")
 MAX_FILE_LINES, MAX_FUNCTION_LINES = 600, 80
 

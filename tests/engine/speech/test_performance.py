@@ -7,7 +7,8 @@ import pytest
 from faces_hands_addon import UserError
 from faces_hands_addon.emotion import expression_for
 from faces_hands_addon.speech import synthesize
-from faces_hands_addon.performance import parse_emotion, voice_settings, with_nonverbal
+from faces_hands_addon.emotion import parse_emotion
+from faces_hands_addon.performance import voice_settings, with_nonverbal
 from faces_hands_addon.speech.takes import take_from_utterance
 
 THESIS_EXAMPLE = "Hi! ;-) Can you show me the way to the conference hall? :-)"  # Figure 4.7
