@@ -18,7 +18,7 @@ from ...faces_hands_addon.core.files import FileClaims
 def check_output_path(path: str | os.PathLike, suffixes: tuple[str, ...]) -> Path:
     """Validate an output path before any work starts, so a path problem is a message and not a failure
     after the work: a name with a known suffix, not empty, not a folder or a special file, no symbolic
-    link loop, in a folder that exists (it is never created on the fly) and takes a new file."""
+    link loop, in a folder that takes a new file (missing folders are made when the file is written)."""
     text = os.fspath(path) if path is not None else ""
     if not str(text).strip():
         raise UserError("the output path is empty; name a file")
@@ -40,17 +40,20 @@ def check_output_path(path: str | os.PathLike, suffixes: tuple[str, ...]) -> Pat
 
 
 def _check_folder_takes_files(folder: Path, out: Path) -> None:
-    """The folder of ``out`` exists and a new file can be made in it (tried: permissions, read-only
-    disks and pseudo file systems all answer the same way)."""
-    if not folder.exists():
-        raise UserError(f"the folder {out.parent} of output {out.name} does not exist; create it first")
-    if not folder.is_dir():
-        raise UserError(f"{out.parent} is not a folder, so {out.name} cannot be written in it")
+    """The folder of ``out`` takes a new file: it exists, or can be made (the missing folders are made only
+    when the finished file is moved into place, :func:`atomic_output`) under the nearest existing folder,
+    where a file can be made (tried: permissions, read-only disks and pseudo file systems all answer the
+    same way)."""
+    existing = folder
+    while not existing.exists():
+        existing = existing.parent
+    if not existing.is_dir():
+        raise UserError(f"{existing} is a file, so the folder {out.parent} for {out.name} cannot be made")
     try:
-        with tempfile.NamedTemporaryFile(dir=folder, prefix=".fh-write-test-"):
+        with tempfile.NamedTemporaryFile(dir=existing, prefix=".fh-write-test-"):
             pass
     except OSError as error:
-        raise UserError(f"cannot write into {out.parent}: {error.strerror or error}") from None
+        raise UserError(f"cannot write into {existing}: {error.strerror or error}") from None
 
 
 def check_output_dir(path: str | os.PathLike) -> Path:

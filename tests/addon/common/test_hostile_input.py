@@ -1,6 +1,6 @@
 """Bad input of every class the review found (issue 33 item 6) is one clear message, before any work, with the
 scene and the files as they were: a random FBX behind an FBX header (17.7 GB of memory in Blender's parser),
-a symlink loop, an output under a missing or unwritable folder, empty options, a NUL byte in a CSV,
+a symlink loop, an output whose folder cannot be made or written, empty options, a NUL byte in a CSV,
 non-finite rates, a control property that is not a number; an importer that runs out of its memory limit in
 its child process; and the same scene exports to the same FBX bytes in two processes."""
 from __future__ import annotations
@@ -45,8 +45,8 @@ CASES = [
     (("build-face", "--mesh", "{loop_a.obj}", "--out", "{x.blend}"), "points back to itself"),
     (("build-face", "--mesh", "", "--out", "{x.blend}"), "--mesh is empty"),
     (("build-face", "--out", "{loop_a.blend}"), "points back to itself"),
-    (("build-face", "--out", "{missing/x.blend}"), "does not exist; create it first"),
-    (("build-face", "--out", "/proc/fh-test/x.blend"), "does not exist"),
+    (("build-face", "--out", "{head.obj/x.blend}"), "is a file, so the folder"),
+    (("build-face", "--out", "/proc/fh-test/x.blend"), "cannot write into /proc"),
     (("speak", "--text", "Hi.", "--voice", "", "--out", "{x.glb}"), "--voice is empty"),
     (("speak", "--text", "Hi.", "--rate", "inf", "--out", "{x.glb}"), "rate inf"),
     (("speak", "--text", "Hi.", "--fps", "nan", "--out", "{x.glb}"), "frame rate nan"),
@@ -68,6 +68,13 @@ def test_bad_command_lines_are_one_message_and_write_nothing(bpy_clean, capsys, 
     assert code == 1 and message in err, err
     assert [line for line in err.splitlines() if line.startswith("faces_hands:")] == [err.strip().splitlines()[-1]]
     assert _listing(files) == before
+
+
+def test_a_missing_output_folder_is_made_only_when_the_file_is_written(bpy_clean, capsys, files):
+    code, err = _cli(capsys, "morph", "--set", "nonsense=1", "--out", files / "new" / "deeper" / "x.glb")
+    assert code == 1 and "no attribute" in err and not (files / "new").exists()
+    code, err = _cli(capsys, "morph", "--out", files / "new" / "deeper" / "x.glb")
+    assert code == 0 and (files / "new" / "deeper" / "x.glb").read_bytes()[:4] == b"glTF", err
 
 
 def test_an_unwritable_folder_is_refused_before_the_work(bpy_clean, capsys, files):

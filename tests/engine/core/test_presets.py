@@ -16,6 +16,7 @@ from faces_hands_addon.face.rig import build_default_rig
 from faces_hands_addon.hand import presets as hand_presets  # noqa: F401  (registers the hand formats)
 from faces_hands_addon.morph import population as morph_population  # noqa: F401  (registers the morph formats)
 from faces_hands_addon.speech import missing_words  # noqa: F401  (registers the transcript check's format)
+from faces_hands_addon.performance import priority  # noqa: F401  (registers the speech priority's format)
 from faces_hands_addon.speech.articulation import class_controls, load_articulation
 
 FORMATS = {"expressions": "faces_hands.expressions", "face/landmarks": "faces_hands.face_landmarks",
@@ -27,7 +28,8 @@ FORMATS = {"expressions": "faces_hands.expressions", "face/landmarks": "faces_ha
            "hand/geometric_muscles": "faces_hands.hand_geometric_muscles", "hand/poses": "faces_hands.hand_poses",
            "emotion/emotion_words": "faces_hands.emotion_words",
            "emotion/basic_expressions": "faces_hands.emotion_expressions",
-           "behavior/styles": "faces_hands.behavior_styles", "behavior/loudness": "faces_hands.loudness"}
+           "behavior/styles": "faces_hands.behavior_styles", "behavior/loudness": "faces_hands.loudness",
+           "performance/speech_priority": "faces_hands.speech_priority"}
 
 
 def _format_of(relative: str) -> str:
