@@ -186,10 +186,15 @@ def measure(name: str, obj, roles, folder: Path) -> dict:
 
 
 # -------------------------------------------------------------------------------------- formats read back
-def take_formats(rig, folder: Path) -> dict:
-    """The take of ``rig`` written in every format, read back (frames and largest weight difference)."""
+def take_formats(blend: Path, name: str, folder: Path) -> dict:
+    """The take of the rig ``name`` saved in ``blend``, written in every format and read back (frames and
+    largest weight difference)."""
+    import json
+
     from faces_hands_addon.anim.retarget import read_live_link_csv, take_rate
-    from faces_hands_addon.speech.cues import cues_text, mouth_cues, read_cues  # noqa: F401 (mouth_cues: doc)
+    from faces_hands_addon.speech.cues import cues_text, read_cues
+    bpy.ops.wm.open_mainfile(filepath=str(blend))
+    rig = bpy.data.objects[name]
     targets, scene = module("operators.adapters.targets"), bpy.context.scene
     frames, weights = targets.animated_weights(rig, scene)
     out = {"take_frames": len(frames)}
@@ -197,9 +202,7 @@ def take_formats(rig, folder: Path) -> dict:
     times, back = read_live_link_csv(csv)
     out["csv_frames"], out["csv_fps"] = len(times), take_rate(times)
     out["csv_max_diff"] = max(float(np.abs(back[n] - np.clip(weights[n], 0, 1)).max()) for n in back if n in weights)
-    cues_json = rig.get(module("operators.speech.apply").CUES_PROPERTY)
-    import json
-    document = json.loads(cues_json)
+    document = json.loads(rig.get(module("operators.speech.apply").CUES_PROPERTY))
     cues = [SimpleNamespace(start=c["start"], end=c["end"], shape=c["value"]) for c in document["mouthCues"]]
     same = True
     for fmt in ("tsv", "json"):
@@ -220,12 +223,9 @@ def take_formats(rig, folder: Path) -> dict:
         got_frames, got = _played(played)
         out[f"{fmt}_take_frames"] = len(got_frames)
         out[f"{fmt}_take_max_diff"] = max(float(np.abs(got[n] - weights[n]).max()) for n in got if n in weights)
-        bpy.ops.wm.open_mainfile(filepath=str(folder / "face.blend"))
-        rig = bpy.data.objects[rig_name[0]]
+        bpy.ops.wm.open_mainfile(filepath=str(blend))
+        rig = bpy.data.objects[name]
     return out
-
-
-rig_name: list[str] = []
 
 
 def _avatar(path: Path) -> None:
@@ -284,15 +284,15 @@ def main() -> int:
     if not args.quick:
         rigs["fitted head, OBJ turned"] = lambda: fitted_face(folder, applied=False)
         rigs["fitted head, applied"] = lambda: fitted_face(folder, applied=True)
-    table, formats = {}, {}
+    table, formats, face = {}, {}, None
     for rig, build in rigs.items():
         obj, roles = build()
         saved = folder / "rig.blend"
         bpy.ops.wm.save_as_mainfile(filepath=str(saved), copy=True)
         name = obj.name
         if rig == "default face":
-            rig_name[:] = [name]
-            bpy.ops.wm.save_as_mainfile(filepath=str(folder / "face.blend"), copy=True)
+            face = (folder / "face.blend", name)
+            bpy.ops.wm.save_as_mainfile(filepath=str(face[0]), copy=True)
         for how in ("as built", "turned", "parented", "centimetres"):
             bpy.ops.wm.open_mainfile(filepath=str(saved))
             obj = bpy.data.objects[name]
@@ -300,8 +300,7 @@ def main() -> int:
             table[f"{rig}, {how}"] = measure(f"{rig} {how}", obj, roles, folder)
             worst = {reader: max(parts.values()) for reader, parts in table[f"{rig}, {how}"].items()}
             print(f"{rig + ', ' + how:42s} " + "  ".join(f"{r} {w:.4f} mm" for r, w in worst.items()), flush=True)
-    bpy.ops.wm.open_mainfile(filepath=str(folder / "face.blend"))
-    formats.update(take_formats(bpy.data.objects[rig_name[0]], folder))
+    formats.update(take_formats(*face, folder))
     formats.update(hand_fbx(folder))
     formats["set_error"] = set_is_absolute()
     for key, value in formats.items():

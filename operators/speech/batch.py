@@ -90,7 +90,11 @@ def checked_spec(raw: dict, fps: float, rig_path=None, jobs_path=None, overwrite
         raise UserError("a Live Link CSV needs the weights animation (leave out --animation frames)")
     cues = _optional_path(spec, "cues", (".tsv", ".txt", ".json"))
     rate = number_field("rate", spec.get("rate"), 175, RATE_RANGE)
-    style, seed, emotion = _nonverbal(spec, once or Once())
+    once = once or Once()
+    style, seed, emotion = _nonverbal(spec, once)
+    if spec.get("voice"):                  # a language the recording's transcript is read in, or the TTS voice
+        from ...faces_hands_addon.speech.espeak import check_voice
+        once("voice", spec["voice"], check_voice)
     if audio:
         seconds = audio_header(audio).duration          # exists, readable, within the length limit
     else:

@@ -37,6 +37,8 @@ def files(tmp_path):
     os.symlink("loop_a.blend", tmp_path / "loop_b.blend")
     (tmp_path / "jobs.csv").write_bytes(b"out,text\n" + str(tmp_path / "a.glb").encode() + b",Hel\x00lo.\n")
     (tmp_path / "locked").mkdir()
+    import soundfile
+    soundfile.write(tmp_path / "hi.wav", [0.0] * 16000, 16000)
     return tmp_path
 
 
@@ -52,6 +54,7 @@ CASES = [
     (("speak", "--text", "Hi.", "--fps", "nan", "--out", "{x.glb}"), "frame rate nan"),
     (("speak", "--text", "Hi.", "--out", "/proc/x.glb"), "cannot write into /proc"),
     (("speak", "--jobs", "{jobs.csv}"), "NUL byte"),
+    (("lipsync", "--audio", "{hi.wav}", "--language", "xx", "--out", "{x.glb}"), "unknown espeak-ng voice 'xx'"),
     (("retarget", "--source", "{loop_b.obj}", "--character", "{head.obj}", "--out", "{y.glb}"), "back to itself"),
     (("retarget", "--source", "{head.obj}", "--character", "{head.obj}", "--fps", "inf", "--out", "{y.glb}"),
      "outside 1..240"),
@@ -112,6 +115,27 @@ def test_an_importer_out_of_memory_is_a_message_and_the_scene_stays(bpy_clean, f
     with pytest.raises(errors.UserError, match="cannot import"):
         foreign.import_foreign(files / "head.obj")
     assert state() == before
+
+
+def test_operators_given_bad_files_report_them_and_leave_the_scene(bpy_clean, files):
+    """The file browser's operators with random bytes, a symlink loop or an empty path: one report, and the
+    file's data (a half-loaded image) does not stay behind."""
+    bpy = bpy_clean
+    assert bpy.ops.faces_hands.morph_new_face() == {"FINISHED"}
+    (files / "random.png").write_bytes(bytes(random.Random(2).getrandbits(8) for _ in range(3000)))
+
+    def state():
+        return (sorted(o.name for o in bpy.data.objects), sorted(i.name for i in bpy.data.images),
+                sorted(m.name for m in bpy.data.meshes))
+    before = state()
+    for call, message in ((lambda: bpy.ops.faces_hands.morph_load_face(filepath=str(files / "random.png")), "UTF-8"),
+                          (lambda: bpy.ops.faces_hands.morph_load_face(filepath=""), "empty path"),
+                          (lambda: bpy.ops.faces_hands.load_hand_photo(filepath=str(files / "random.png")), "pixels"),
+                          (lambda: bpy.ops.faces_hands.load_hand_photo(filepath=str(files / "loop_a.obj")), "itself"),
+                          (lambda: bpy.ops.faces_hands.morph_save_face(filepath="/proc/face.json"), "cannot write")):
+        with pytest.raises(RuntimeError, match=message):
+            call()
+        assert state() == before
 
 
 def test_a_control_property_that_is_not_a_number_is_named(bpy_clean):
