@@ -216,37 +216,17 @@ def take_formats(blend: Path, name: str, folder: Path) -> dict:
     for fmt in ("glb", "fbx"):
         path = services.export(bpy.context, rig, str(folder / f"take.{fmt}"))
         if not avatar.exists():
-            _avatar(avatar)
+            from faces_hands_addon.anim.retarget import ARKIT_NAMES
+            checks.save_avatar(bpy, avatar, ARKIT_NAMES)
         played = folder / f"played_{fmt}.blend"
         services.retarget(SimpleNamespace(source=str(path), character=str(avatar), fps=None, csv_fps=None, rig=None,
                                           object=None), played)
-        got_frames, got = _played(played)
+        got_frames, got = checks.played_weights(bpy, played)
         out[f"{fmt}_take_frames"] = len(got_frames)
         out[f"{fmt}_take_max_diff"] = max(float(np.abs(got[n] - weights[n]).max()) for n in got if n in weights)
         bpy.ops.wm.open_mainfile(filepath=str(blend))
         rig = bpy.data.objects[name]
     return out
-
-
-def _avatar(path: Path) -> None:
-    from faces_hands_addon.anim.retarget import ARKIT_NAMES
-    bpy.ops.wm.read_homefile(use_empty=True)
-    mesh = bpy.data.meshes.new("Avatar")
-    mesh.from_pydata([(0, 0, 0.005), (0, 0, -0.005), (0.02, 0, 0)], [], [(0, 1, 2)])
-    avatar = bpy.data.objects.new("Avatar", mesh)
-    bpy.context.scene.collection.objects.link(avatar)
-    avatar.shape_key_add(name="Basis", from_mix=False)
-    for name in ARKIT_NAMES:
-        avatar.shape_key_add(name=name, from_mix=False).data[1].co.z -= 0.001
-    bpy.ops.wm.save_as_mainfile(filepath=str(path))
-
-
-def _played(path: Path):
-    bpy.ops.wm.open_mainfile(filepath=str(path))
-    avatar, scene = bpy.data.objects["Avatar"], bpy.context.scene
-    frames = list(range(scene.frame_start, scene.frame_end + 1))
-    bag = module("operators.adapters.fcurves").existing_channelbag(avatar.data.shape_keys)
-    return frames, {c.data_path.split('"')[1]: np.array([c.evaluate(f) for f in frames]) for c in bag.fcurves}
 
 
 def hand_fbx(folder: Path) -> dict:

@@ -1,4 +1,5 @@
-"""Where an exported file puts every vertex, measured against the scene that wrote it (tests and bench).
+"""Where an exported file puts every vertex, measured against the scene that wrote it, and a take read back
+through a character that plays it (tests and bench).
 
 The scene side is Blender's evaluated meshes (shape keys, armature skinning, modifiers, object and parent
 transforms) in world space at chosen frames. The file side is the same file re-imported by Blender's own glTF
@@ -88,3 +89,30 @@ def placement_errors(scene: dict[str, np.ndarray], file: dict[str, np.ndarray]) 
     names = set(scene) | set(file)
     return {name: trajectory_error(scene[name], file[name]) if name in scene and name in file else float("inf")
             for name in sorted(names)}
+
+
+def save_avatar(bpy, path, names) -> None:
+    """A .blend holding ``Avatar``: a three-vertex character with one shape key per name of ``names``, the
+    character a retargeted take plays on."""
+    bpy.ops.wm.read_homefile(use_empty=True)
+    mesh = bpy.data.meshes.new("Avatar")
+    mesh.from_pydata([(0, 0, 0.005), (0, 0, -0.005), (0.02, 0, 0)], [], [(0, 1, 2)])
+    avatar = bpy.data.objects.new("Avatar", mesh)
+    bpy.context.scene.collection.objects.link(avatar)
+    avatar.shape_key_add(name="Basis", from_mix=False)
+    for name in names:
+        avatar.shape_key_add(name=name, from_mix=False).data[1].co.z -= 0.001
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+
+
+def played_weights(bpy, path) -> tuple[list[int], dict[str, np.ndarray]]:
+    """The scene's frames and, per animated shape key of ``Avatar`` in the .blend ``path``, its weight at
+    each frame."""
+    bpy.ops.wm.open_mainfile(filepath=str(path))
+    avatar, scene = bpy.data.objects["Avatar"], bpy.context.scene
+    frames = list(range(scene.frame_start, scene.frame_end + 1))
+    action = avatar.data.shape_keys.animation_data.action
+    slot = avatar.data.shape_keys.animation_data.action_slot
+    bags = [strip.channelbag(slot) for layer in action.layers for strip in layer.strips]
+    curves = [c for bag in bags if bag is not None for c in bag.fcurves]
+    return frames, {c.data_path.split('"')[1]: np.array([c.evaluate(f) for f in frames]) for c in curves}

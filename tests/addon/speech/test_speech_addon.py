@@ -328,47 +328,24 @@ def test_cli_speak_glb_shows_every_bilabial_closed_on_time(installed, tmp_path):
             assert max(weights[n][k] for n in others + correctives) < 1e-6, (closure, times[k])
 
 
-def _avatar(path):
-    """A .blend with a three-vertex character that has the 52 ARKit and the 15 viseme shape keys."""
-    import bpy
-    from faces_hands_addon.anim.retarget import ARKIT_NAMES
-    from faces_hands_addon.speech.cues import SHAPE_VISEME
-    bpy.ops.wm.read_homefile(use_empty=True)
-    mesh = bpy.data.meshes.new("Avatar")
-    mesh.from_pydata([(0, 0, 0.005), (0, 0, -0.005), (0.02, 0, 0)], [], [(0, 1, 2)])
-    avatar = bpy.data.objects.new("Avatar", mesh)
-    bpy.context.scene.collection.objects.link(avatar)
-    avatar.shape_key_add(name="Basis", from_mix=False)
-    for name in list(ARKIT_NAMES) + sorted(set(SHAPE_VISEME.values()) | {"viseme_PP", "viseme_aa"}):
-        avatar.shape_key_add(name=name, from_mix=False).data[1].co.z -= 0.001
-    bpy.ops.wm.save_as_mainfile(filepath=str(path))
-
-
-def _played(path):
-    """Frames and weights (name -> per frame) of the character's shape keys in a retargeted .blend."""
-    import bpy
-    bpy.ops.wm.open_mainfile(filepath=str(path))
-    avatar, scene = bpy.data.objects["Avatar"], bpy.context.scene
-    frames = list(range(scene.frame_start, scene.frame_end + 1))
-    bag = avatar.data.shape_keys.animation_data.action.layers[0].strips[0].channelbags[0]
-    return frames, {c.data_path.split('"')[1]: np.array([c.evaluate(f) for f in frames]) for c in bag.fcurves}
-
-
 def _every_file_of_the_take_reads_back(installed, tmp_path, glb):
     """Every format the take was written in, read back by ``retarget`` (issue 33 item 5): the GLB's and the
     Live Link CSV's weights at every frame of the take, the mouth cues' shapes at their times."""
     from types import SimpleNamespace
 
+    import bpy
     from conftest import addon_module, run_fh
+    from export_checks import played_weights, save_avatar
+    from faces_hands_addon.anim.retarget import ARKIT_NAMES
     from faces_hands_addon.speech.cues import SHAPE_VISEME, read_cues
     avatar = tmp_path / "avatar.blend"
-    _avatar(avatar)
+    save_avatar(bpy, avatar, list(ARKIT_NAMES) + sorted(set(SHAPE_VISEME.values()) | {"viseme_PP", "viseme_aa"}))
     times, weights = max((v for k, v in _glb_weight_animation(glb).items() if isinstance(k, str)),
                          key=lambda tw: len(tw[1]))
     cues = tmp_path / "played_cues.blend"                     # in this process: the same service, faster
     addon_module("operators.face.services").retarget(SimpleNamespace(
         source=str(tmp_path / "papa.tsv"), character=str(avatar), fps=None, csv_fps=None, rig=None, object=None), cues)
-    _, played = _played(cues)
+    _, played = played_weights(bpy, cues)
     for cue in read_cues(tmp_path / "papa.tsv")[1:-1]:
         middle = int(round((cue.start + cue.end) / 2 * 30))
         assert played[SHAPE_VISEME[cue.shape]][middle] == 1.0, (cue, middle)
@@ -376,7 +353,7 @@ def _every_file_of_the_take_reads_back(installed, tmp_path, glb):
         out = tmp_path / f"played_{source.replace('.', '_')}.blend"
         result = run_fh(installed, "retarget", "--source", tmp_path / source, "--character", avatar, "--out", out)
         assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
-        frames, played = _played(out)
+        frames, played = played_weights(bpy, out)
         assert f"Transferred {len(times)} frames at 30 fps" in result.stdout, result.stdout
         assert len(frames) == len(times)                        # 30 fps: not read as 60 (149 -> 135 on main)
         names = [n for n in played if n in weights] if source == "papa.glb" else [n for n in played if n[0] != "v"]
