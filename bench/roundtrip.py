@@ -18,8 +18,9 @@ and JSON), its GLB and FBX through ``retarget`` (weights at every frame), the ha
 keyed bones) and ``--set`` (the attribute value it leaves).
 
 ``.venv/bin/python bench/roundtrip.py [--quick]`` (needs ``make install`` and ``make bench-client``;
-``--quick``: no fitted heads). The last line is ``RESULT key=value ...``; the exit code is 1 when any export
-misplaces a vertex by more than 0.1 mm or a format does not read back.
+``--quick``: no fitted heads). three.js's pictures of each rig's turned GLB (front, side, back, at the second
+animated frame) go to ``out/bench/roundtrip/``. The last line is ``RESULT key=value ...``; the exit code is 1
+when any export misplaces a vertex by more than 0.1 mm or a format does not read back.
 """
 from __future__ import annotations
 
@@ -90,6 +91,10 @@ def fitted_face(folder: Path, applied: bool):
     bpy.ops.wm.obj_import(filepath=str(_head_obj(folder)))
     head = bpy.context.selected_objects[0]
     head.scale = (0.1, 0.1, 0.1)
+    head.data.shade_smooth()                       # as an artist's head would be: smooth, a skin material
+    skin = bpy.data.materials.new("Skin")
+    skin.diffuse_color, skin.metallic, skin.roughness = (0.8, 0.6, 0.5, 1.0), 0.0, 0.6
+    head.data.materials.append(skin)
     bpy.context.view_layer.objects.active = head
     if applied:
         bpy.ops.object.transform_apply(location=True, rotation=True, scale=True)
@@ -160,7 +165,19 @@ def browser_positions(path: Path, times: np.ndarray) -> dict[str, np.ndarray]:
     return {name: np.concatenate(parts, axis=1) for name, parts in out.items()}
 
 
-def measure(name: str, obj, roles, folder: Path) -> dict:
+def shoot(path: Path, centre: np.ndarray, size: float, time_s: float, png: Path) -> None:
+    """three.js's picture of the GLB at ``time_s``: front, side (the character's left) and back, around
+    ``centre`` (Blender axes) at a distance that frames ``size`` metres; made to be looked at."""
+    target = [float(centre[0]), float(centre[2]), float(-centre[1])]         # Blender Z-up -> glTF Y-up
+    distance = 2.2 * size
+    views = [{"yaw": yaw, "pitch": 0.0, "target": target, "distance": distance, "fov": 30}
+             for yaw in (0.0, math.pi / 2, math.pi)]
+    skin = SimpleNamespace(mesh=0, rest=lambda vertices: np.zeros((1, 3)))
+    client.play(path, skin, None, np.array([0.0]), np.zeros(0, int), [], influences=False,
+                views_shots=[{"time": time_s, "png": str(png), "views": views}], size=(1800, 600))
+
+
+def measure(name: str, obj, roles, folder: Path, picture: bool = False) -> dict:
     """Export ``obj`` as GLB and FBX, read both back with Blender and the GLB with three.js: the largest
     vertex error of any part (mm) per reader."""
     scene = bpy.context.scene
@@ -180,6 +197,11 @@ def measure(name: str, obj, roles, folder: Path) -> dict:
         result[fmt] = {part: e * 1000 for part, e in errors.items()}
     times = (np.array(frames) - frames[0]) / fps
     played = browser_positions(paths["glb"], times)
+    if picture:
+        shown = min(2, len(times) - 1)                            # the second animated frame (a still: its only)
+        every = np.concatenate([w[shown] for w in wanted.values()])
+        shoot(paths["glb"], 0.5 * (every.min(0) + every.max(0)), float(np.ptp(every, axis=0).max()), times[shown],
+              OUT / f"{name.replace(' ', '_').replace(',', '')}.png")
     result["three.js"] = {part: 1000 * checks.trajectory_error(wanted[part], played[part]) if part in played
                           else float("inf") for part in wanted}
     return result
@@ -277,7 +299,7 @@ def main() -> int:
             bpy.ops.wm.open_mainfile(filepath=str(saved))
             obj = bpy.data.objects[name]
             transform(obj, how)
-            table[f"{rig}, {how}"] = measure(f"{rig} {how}", obj, roles, folder)
+            table[f"{rig}, {how}"] = measure(f"{rig} {how}", obj, roles, folder, picture=how == "turned")
             worst = {reader: max(parts.values()) for reader, parts in table[f"{rig}, {how}"].items()}
             print(f"{rig + ', ' + how:42s} " + "  ".join(f"{r} {w:.4f} mm" for r, w in worst.items()), flush=True)
     formats.update(take_formats(*face, folder))
