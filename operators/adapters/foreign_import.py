@@ -3,8 +3,9 @@
 
 The file is checked first (:func:`...faces_hands_addon.core.foreign_files.check_foreign_file`: path, size,
 header and the sizes it declares). Then the importer runs in a child Blender (this Python with the ``bpy``
-module, or Blender itself in the background) under a memory limit of :data:`MEMORY_LIMIT` (POSIX
-``RLIMIT_DATA``; elsewhere only the checks guard) and a time limit; the child writes what it imported to a
+module, or Blender itself in the background) under a memory limit of :data:`MEMORY_LIMIT` (``RLIMIT_DATA``,
+which the child sets itself before the importer runs; POSIX only, elsewhere the checks alone guard) and a
+time limit; the child writes what it imported to a
 .blend in a temporary folder, and this process appends those objects into the current scene. A file that
 makes the importer fail, exhaust its memory or hang is a clear error here, and this session's scene and
 memory never saw it.
@@ -50,17 +51,12 @@ def child_command(source: Path, out: Path) -> list[str]:
     return [sys.executable, str(CHILD), *tail]
 
 
-def _limit_memory() -> None:                        # runs in the child between fork and exec
-    import resource  # noqa: PLC0415 - POSIX only
-    resource.setrlimit(resource.RLIMIT_DATA, (MEMORY_LIMIT, MEMORY_LIMIT))
-
-
 def _run_child(source: Path, out: Path, folder: Path) -> dict:
-    env = dict(os.environ, BLENDER_USER_RESOURCES=str(folder / "user"))    # no user add-ons or startup file
+    env = dict(os.environ, BLENDER_USER_RESOURCES=str(folder / "user"),      # no user add-ons or startup file
+               FH_IMPORT_MEMORY=str(MEMORY_LIMIT))                           # the child limits itself
     try:
         done = subprocess.run(child_command(source, out), capture_output=True, text=True, errors="replace",
-                              timeout=TIME_LIMIT_S, env=env, cwd=folder,
-                              preexec_fn=_limit_memory if os.name == "posix" else None)
+                              timeout=TIME_LIMIT_S, env=env, cwd=folder)
     except subprocess.TimeoutExpired:
         raise UserError(f"importing {source} took longer than {TIME_LIMIT_S / 60:g} minutes; "
                         "the file may be damaged") from None

@@ -4,10 +4,14 @@ one foreign file with Blender's own importer into an empty scene and write what 
 
 ``<python or blender ...> import_child.py -- SOURCE SUFFIX OUT.blend``: prints one JSON line, the names of
 the objects written and the frame rate the imported keys count in. It imports nothing from the extension: the parent checked the file's header and sizes
-and set this process's memory limit; an importer that fails leaves this process with a non-zero exit.
+and names the memory limit this process sets itself before the importer runs (``FH_IMPORT_MEMORY``); an
+importer that fails leaves this process with a non-zero exit.
 """
 import json
+import os
 import sys
+
+MEMORY_VARIABLE = "FH_IMPORT_MEMORY"
 
 
 def _import(bpy, source: str, suffix: str) -> None:
@@ -25,8 +29,21 @@ def _import(bpy, source: str, suffix: str) -> None:
         raise SystemExit(f"no importer for {suffix}")
 
 
+def _limit_memory() -> None:
+    """The data limit the parent asks for (``FH_IMPORT_MEMORY``, bytes), set before Blender's importer runs
+    (and, in the bpy module, before Blender itself loads); POSIX only."""
+    limit = int(os.environ.get(MEMORY_VARIABLE, "0") or 0)
+    if limit > 0:
+        try:
+            import resource  # noqa: PLC0415 - POSIX only
+        except ImportError:
+            return
+        resource.setrlimit(resource.RLIMIT_DATA, (limit, limit))
+
+
 def main(argv) -> None:
     source, suffix, out = argv[argv.index("--") + 1:][:3]
+    _limit_memory()
     import bpy  # noqa: PLC0415 - Blender or the bpy module, loaded only in the child
     bpy.ops.wm.read_factory_settings(use_empty=True)
     before = set(bpy.data.objects)
