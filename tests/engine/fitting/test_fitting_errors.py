@@ -78,3 +78,13 @@ def test_landmarks_placed_by_hand_on_no_face_are_refused(mask, case):
         vertices, faces = TRIANGLE * 0.2, np.array([[0, 1, 2]])
     with pytest.raises(UserError, match="point, a line or a plane"):
         build_fitted_rig(vertices, faces, landmarks)
+
+
+def test_a_singular_registration_is_the_meshs_problem_said_as_such():
+    """SuperLU's 'Factor is exactly singular' (the review's one-triangle mesh) reaches the artist as what to
+    do about the mesh."""
+    from scipy import sparse
+    from faces_hands_addon.fitting import nicp
+    with pytest.raises(UserError, match="cannot be registered onto this mesh"):
+        nicp._lu_solve(sparse.csr_matrix((3, 3)), np.ones(3))
+    assert np.allclose(nicp._lu_solve(sparse.identity(3, format="csr") * 2.0, np.ones(3)), 0.5)
