@@ -320,7 +320,8 @@ class WeightSolver:
                  prior_strength: float = PRIOR_STRENGTH) -> None:
         if correctives is not None and correctives.vertex_count != basis.vertex_count:
             raise UserError("the corrective targets do not match the targets' vertices; bake them again")
-        self.stages = [_Stage(basis)] + ([_Stage(correctives)] if correctives is not None else [])
+        with one_blas_thread():         # a threaded BLAS sums the Gram products in another order
+            self.stages = [_Stage(basis)] + ([_Stage(correctives)] if correctives is not None else [])
         self.names = basis.names + (correctives.names if correctives is not None else ())
         self.primary = len(basis.names)
         self.prior_strength = prior_strength
@@ -328,7 +329,8 @@ class WeightSolver:
         self.columns = np.hstack([stage.columns for stage in self.stages])
         # what the correctives see of the primary weights (C2^T C1): their right-hand sides without the
         # full-size residual of the first stage
-        self._cross = self.stages[1].columns.T @ self.stages[0].columns if correctives is not None else None
+        with one_blas_thread():
+            self._cross = self.stages[1].columns.T @ self.stages[0].columns if correctives is not None else None
 
     def solve_many(self, displacements: np.ndarray, prior: np.ndarray | None = None,
                    exact: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -342,7 +344,11 @@ class WeightSolver:
             raise UserError("the poses do not match the baked targets; bake them again")
         if prior is not None and np.shape(prior) != (len(displacements), self.primary):
             raise UserError("the prior weights do not match the frames and targets")
-        flat = displacements.reshape(len(displacements), -1)
+        with one_blas_thread():         # the same bytes on any machine, whatever its core count
+            return self._solve_block(displacements.reshape(len(displacements), -1), prior, exact)
+
+    def _solve_block(self, flat: np.ndarray, prior: np.ndarray | None,
+                     exact: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
         projected = self.columns.T @ flat.T                          # (T, F): every stage's, in one product
         rows = np.asarray(exact, bool) if exact is not None and prior is not None else None
         first = self.stages[0].columns.shape[1]

@@ -160,3 +160,22 @@ def test_weight_solver_agrees_with_and_without_the_compiled_loop(monkeypatch):
     assert np.abs(results[0][0][:, :10] - results[1][0][:, :10]).max() < 1e-8
     assert np.abs(results[0][1] - results[1][1]).max() < 1e-9
     assert np.array_equal(results[1][0][exact, :10], np.clip(prior[exact], 0, 1))
+
+
+def test_the_weight_fit_gives_the_same_bytes_whatever_the_blas_thread_count():
+    """A threaded BLAS sums the large products in another order for another thread count (the jobs runner
+    saw 3 of 4 GLBs change between one and two workers): the solver pins one thread itself."""
+    from threadpoolctl import threadpool_limits
+    from faces_hands_addon.anim.weights import TargetBasis, WeightSolver
+    rng = np.random.default_rng(5)
+    basis = TargetBasis(tuple(f"t{k}" for k in range(48)), rng.normal(size=(48, 6000, 3)))
+    correctives = TargetBasis(tuple(f"c{k}" for k in range(30)), rng.normal(size=(30, 6000, 3)))
+    frames = rng.normal(size=(64, 6000, 3))
+    prior = rng.uniform(size=(64, 48))
+    results = []
+    for threads in (1, 4):
+        with threadpool_limits(limits=threads, user_api="blas"):
+            solver = WeightSolver(basis, correctives)
+            weights, residual = solver.solve_many(frames, prior)
+        results.append(weights.tobytes() + residual.tobytes())
+    assert results[0] == results[1]
