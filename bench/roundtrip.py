@@ -281,7 +281,11 @@ def main() -> int:
     args = parser.parse_args()
     OUT.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
-    folder = Path(tempfile.mkdtemp(prefix="fh-roundtrip-", dir=OUT))
+    with tempfile.TemporaryDirectory(prefix="fh-roundtrip-") as tmp:      # the exports: ~0.7 GB, not kept
+        return _run(args, Path(tmp), started)
+
+
+def _run(args, folder: Path, started: float) -> int:
     rigs = {"default face": default_face, "hand": hand, "morph face": morph_face}
     if not args.quick:
         rigs["fitted head, OBJ turned"] = lambda: fitted_face(folder, applied=False)
