@@ -282,13 +282,16 @@ def validate(paths: list[Path]) -> list[dict]:
 
 
 def play(path: Path, skin: Skin, clip: str, times: np.ndarray, vertices: np.ndarray, shots: list[dict],
-         influences: bool = True, views_shots: list[dict] = (), size: tuple[int, int] = (1500, 600)) -> dict:
+         influences: bool = True, views_shots: list[dict] = (), size: tuple[int, int] = (1500, 600),
+         all_meshes: bool = False) -> dict:
     """Play the GLB in three.js; ``shots`` are fhRender screenshots, ``views_shots`` fhRenderViews ones
-    ({time, png, views: [{yaw, pitch, target, distance, fov}]}) at ``size`` pixels."""
+    ({time, png, views: [{yaw, pitch, target, distance, fov}]}) at ``size`` pixels; ``all_meshes``: the
+    samples are every vertex of every mesh (``samples["meshes"]``, fhSampleMeshes) instead of ``vertices``."""
     with tempfile.TemporaryDirectory(prefix="fh-gltf-client-") as tmp:
         job, result = Path(tmp) / "job.json", Path(tmp) / "result.json"
         job.write_text(json.dumps({"glb": str(path), "mesh": skin.mesh, "clip": clip, "times": times.tolist(),
                                    "influences": influences, "views_shots": list(views_shots),
+                                   "all_meshes": all_meshes,
                                    "vertices": vertices.tolist(), "shots": shots, "chromium": CHROMIUM,
                                    "focus": skin.rest(vertices).mean(axis=0).tolist(),
                                    "width": size[0], "height": size[1]}))

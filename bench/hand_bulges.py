@@ -62,7 +62,7 @@ def main() -> int:
     size = tuple(int(v) for v in args.size.split("x"))
     views = args.views.split(",")
     services, render, sheet = (_harness.addon_module(f"operators.{m}")
-                               for m in ("hand.services", "common.render", "hand.sheet"))
+                               for m in ("hand.services", "adapters.render", "hand.sheet"))
     obj = services.build_hand_object()
     rig = _harness.addon_module("operators.adapters.rig_store").get_rig(obj, "hand")
     folder = Path(args.out_dir) if args.out_dir else None

@@ -24,6 +24,8 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "scripts"))
 import blender_env  # noqa: E402
+import skip_policy  # noqa: E402
+from skip_policy import intended_skip  # noqa: E402
 
 FROM_SOURCE = os.environ.get("FH_TEST_FROM_SOURCE") == "1"
 HAS_BPY = importlib.util.find_spec("bpy") is not None and not FROM_SOURCE
@@ -67,22 +69,24 @@ def _install_for_session() -> None:
 _install_for_session()
 
 
+def pytest_configure(config):
+    config.pluginmanager.register(skip_policy, "skip_policy")      # a skip nobody meant fails CI
+
+
 def pytest_collection_modifyitems(config, items):
     if os.environ.get("FH_TEST_SKIP_ENGINE") == "1":
         # CI's bpy 5.0, 4.5 and 5.3 lines: the engine never imports bpy, and the same Python and numpy already
         # run every engine test (5.0 and 4.5 = 3.11 + numpy 1.26 as `make test-engine`; 5.3 = 3.13 + numpy
         # 2.5 as 5.2)
-        skip = pytest.mark.skip(reason="engine tests run on another line with this Python and numpy")
         for item in items:
             if "tests/engine/" in str(item.fspath).replace(os.sep, "/"):
-                item.add_marker(skip)
+                intended_skip(item, "engine tests run on another line with this Python and numpy")
     if ENGINE_ONLY:
         reason = ("FH_TEST_FROM_SOURCE=1 runs engine tests only" if FROM_SOURCE
                   else "no bpy in this Python: engine tests only")
-        skip = pytest.mark.skip(reason=reason)
         for item in items:
             if "tests/engine/" not in str(item.fspath).replace(os.sep, "/"):
-                item.add_marker(skip)
+                intended_skip(item, reason)
 
 
 _exit_status = {"code": None}

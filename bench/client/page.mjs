@@ -21,7 +21,8 @@ window.fhLoad = async (url, meshIndex, clipName) => {
   const scene = new THREE.Scene();
   scene.add(gltf.scene);
   scene.updateMatrixWorld(true);
-  const clip = clipName ? gltf.animations.find((c) => c.name === clipName) : gltf.animations[0];
+  const clip = clipName ? gltf.animations.find((c) => c.name === clipName)
+    : gltf.animations[0] || new THREE.AnimationClip('static', 0, []);   // a file without animation
   if (!clip) throw new Error(`clip ${clipName} not found (have ${gltf.animations.map((c) => c.name)})`);
   const mixer = new THREE.AnimationMixer(gltf.scene);
   const action = mixer.clipAction(clip);
@@ -36,13 +37,13 @@ window.fhLoad = async (url, meshIndex, clipName) => {
       attributes: Object.keys(o.geometry.attributes), vertexColors: !!o.material.vertexColors });
   });
   // tracks the mixer actually bound to an object (an unbound track would play nothing)
-  const bound = action._propertyBindings.filter((b) => b.binding.node !== undefined && b.binding.node !== null).length;
+  const bound = (action._propertyBindings || []).filter((b) => b.binding.node !== undefined && b.binding.node !== null).length;
   state = { gltf, scene, clip, mixer, action, skin, time: 0 };
   return {
     clips: gltf.animations.map((c) => ({ name: c.name, duration: c.duration, tracks: c.tracks.length })),
     clip: clip.name, duration: clip.duration, tracks: clip.tracks.map((t) => t.name), boundTracks: bound,
     skin: { name: skin.name, vertices: skin.geometry.attributes.position.count,
-      morphTargets: skin.morphTargetInfluences.length, morphTargetsRelative: skin.geometry.morphTargetsRelative,
+      morphTargets: (skin.morphTargetInfluences || []).length, morphTargetsRelative: skin.geometry.morphTargetsRelative,
       targetNames: Object.keys(skin.morphTargetDictionary || {}) },
     meshes, revision: THREE.REVISION,
   };
@@ -67,6 +68,39 @@ window.fhSample = (times, vertexIndices, withInfluences = true) => {
     matrices.push(skin.matrixWorld.toArray());  // column-major, as glTF and three.js store it
   }
   return { influences, positions, actionTimes: mixerTimes, matrices };
+};
+
+window.fhSampleMeshes = (times) => {
+  // every vertex of every mesh in world space at each time (morph targets and skinning applied by three.js on
+  // the CPU, then matrixWorld), played forward from 0 as a render loop would; one entry per three.js Mesh with
+  // the glTF mesh and primitive it was made from
+  const { gltf, mixer, action } = state;
+  action.reset();
+  mixer.setTime(0);
+  const meshes = [];
+  gltf.scene.traverse((o) => {
+    if (!o.isMesh) return;
+    const ref = gltf.parser.associations.get(o) || {};
+    meshes.push({ object: o, mesh: ref.meshes, primitive: ref.primitives ?? 0, name: o.name, positions: [] });
+  });
+  const v = new THREE.Vector3();
+  let now = 0;
+  for (const t of times) {
+    if (t < now) throw new Error('sample times must increase');
+    mixer.update(t - now);
+    now = t;
+    gltf.scene.updateMatrixWorld(true);
+    for (const m of meshes) {
+      const count = m.object.geometry.attributes.position.count;
+      const out = new Array(count * 3);
+      for (let i = 0; i < count; i++) {
+        m.object.localToWorld(m.object.getVertexPosition(i, v));
+        out[3 * i] = v.x; out[3 * i + 1] = v.y; out[3 * i + 2] = v.z;
+      }
+      m.positions.push(out);
+    }
+  }
+  return meshes.map(({ mesh, primitive, name, positions }) => ({ mesh, primitive, name, positions }));
 };
 
 window.fhRender = (t, width, height, focus) => {

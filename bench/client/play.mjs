@@ -3,7 +3,8 @@
 // folder's page, three.js and the GLB from disk through request interception (no network, no server),
 // and runs the page's fhLoad / fhSample / fhRender. Reads a job JSON file (argv[2]):
 //   {glb, mesh, clip, times: [s], vertices: [i], shots: [{time, png}], focus: [x, y, z], width, height,
-//    chromium, influences (false: positions only), views_shots: [{time, png, views}] (fhRenderViews)}
+//    chromium, influences (false: positions only), views_shots: [{time, png, views}] (fhRenderViews),
+//    all_meshes (true: every vertex of every mesh at each time, fhSampleMeshes, instead of fhSample)}
 // and writes the result JSON to argv[3].
 import { readFile, writeFile } from 'node:fs/promises';
 import { dirname, join } from 'node:path';
@@ -48,8 +49,9 @@ try {
   const info = await page.evaluate(([m, c]) => window.fhLoad('/model.glb', m, c), [job.mesh, job.clip || null]);
   const loadMs = performance.now() - started;
   const sampleStart = performance.now();
-  const samples = await page.evaluate(([t, v, w]) => window.fhSample(t, v, w),
-    [job.times, job.vertices, job.influences !== false]);
+  const samples = job.all_meshes
+    ? { meshes: await page.evaluate((t) => window.fhSampleMeshes(t), job.times) }
+    : await page.evaluate(([t, v, w]) => window.fhSample(t, v, w), [job.times, job.vertices, job.influences !== false]);
   const sampleMs = performance.now() - sampleStart;
   const shots = [];
   for (const shot of job.shots || []) {

@@ -16,9 +16,10 @@ from pathlib import Path
 import numpy as np
 
 from ..core.errors import UserError
+from ..core.foreign_files import read_text
 
 __all__ = ["ARKIT_NAMES", "LIVE_LINK_EXTRA", "aliases", "match_targets", "write_live_link_csv",
-           "read_live_link_csv", "MAX_CSV_BYTES"]
+           "read_live_link_csv", "timecode_rate", "take_rate", "MAX_CSV_BYTES", "TIMECODE_RATE"]
 
 #: the 52 ARKit blendshapes in Live Link Face's CSV column order (presets/SOURCES.md, ARKit)
 ARKIT_NAMES = (
@@ -36,6 +37,10 @@ LIVE_LINK_EXTRA = ("HeadYaw", "HeadPitch", "HeadRoll", "LeftEyeYaw", "LeftEyePit
                    "RightEyeYaw", "RightEyePitch", "RightEyeRoll")
 VISEME_SPELLINGS = {"viseme_ih": ("viseme_I",), "viseme_oh": ("viseme_O",), "viseme_ou": ("viseme_U",)}
 MAX_CSV_BYTES = 200_000_000
+#: the rate Live Link Face's timecodes count frames in unless set otherwise, and the one this writer uses
+TIMECODE_RATE = 60
+#: frame rates timecodes run at (a take that passes a whole second shows which)
+STANDARD_RATES = (24, 25, 30, 48, 50, 60, 72, 90, 100, 120, 144, 240)
 
 
 def aliases(name: str) -> tuple[str, ...]:
@@ -69,7 +74,7 @@ def match_targets(wanted, available) -> dict[str, str]:
     return out
 
 
-def _timecode(seconds: float, fps: float) -> str:
+def _timecode(seconds: float, fps: float = TIMECODE_RATE) -> str:
     """``HH:MM:SS:FF.mmm``: whole frames at ``fps`` and the thousandths of a frame (counted in integer
     thousandths of a frame, so a time on a frame never reads as the end of the frame before)."""
     ticks = int(round(seconds * fps * 1000.0))
@@ -83,9 +88,12 @@ def _timecode(seconds: float, fps: float) -> str:
     return f"{hours:02d}:{minutes:02d}:{secs:02d}:{frame:02d}.{thousandths:03d}"
 
 
-def write_live_link_csv(path: str | Path, times, weights: dict[str, np.ndarray], fps: float) -> Path:
+def write_live_link_csv(path: str | Path, times, weights: dict[str, np.ndarray], fps: float | None = None) -> Path:
     """Write the ARKit weights (name -> per-time values; missing names are 0) at ``times`` (s) as a Live Link
-    Face CSV (52 blendshapes + 9 rotations per row)."""
+    Face CSV (52 blendshapes + 9 rotations per row). The timecodes count frames at Live Link Face's 60 per
+    second whatever the take's rate (``fps``, kept for callers): a 30-fps take's rows step two frames, a
+    24-fps take's 2.5; so every reader that takes Live Link Face's default reads the times exactly, and
+    :func:`read_live_link_csv` finds the take's own rate in the steps."""
     times = np.asarray(times, np.float64)
     for name, values in weights.items():
         if np.asarray(values).shape != times.shape or not np.all(np.isfinite(values)):
@@ -99,7 +107,7 @@ def write_live_link_csv(path: str | Path, times, weights: dict[str, np.ndarray],
                          *LIVE_LINK_EXTRA])
         count = len(ARKIT_NAMES) + len(LIVE_LINK_EXTRA)
         for row, time in enumerate(times):
-            writer.writerow([_timecode(float(time), fps), count, *(f"{c[row]:.6f}" for c in columns),
+            writer.writerow([_timecode(float(time)), count, *(f"{c[row]:.6f}" for c in columns),
                              *(["0.000000"] * len(LIVE_LINK_EXTRA))])
     return path
 
@@ -107,29 +115,61 @@ def write_live_link_csv(path: str | Path, times, weights: dict[str, np.ndarray],
 _TIMECODE = re.compile(r"^(\d+):(\d\d):(\d\d):(\d+)(?:\.(\d+))?$")
 
 
-def read_live_link_csv(path: str | Path, fps: float = 60.0) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-    """Times (s, from the first row) and ARKit weights (camelCase name -> values) of a Live Link Face CSV;
-    ``fps`` is the rate its timecodes count frames in (Live Link Face records at 60 unless set to 30)."""
-    path = Path(path)
-    if not path.is_file():
-        raise UserError(f"{path} does not exist")
-    if path.stat().st_size > MAX_CSV_BYTES:
-        raise UserError(f"{path} is larger than {MAX_CSV_BYTES // 1_000_000} MB")
+def timecode_rate(frames: np.ndarray, seconds: np.ndarray, given: float | None = None) -> float:
+    """The rate a Live Link Face CSV's timecodes count frames in: the frame number runs from 0 to the rate
+    minus one and starts again at each whole second, so a take that passes a second shows it (the next
+    standard rate at or above the largest frame number + 1); a shorter take takes ``given`` or Live Link
+    Face's default, 60. A ``given`` rate that frame numbers exceed is refused."""
+    largest = int(frames.max()) if len(frames) else 0
+    if given is not None:
+        if largest >= given:
+            raise UserError(f"the timecodes count frames up to {largest}, so they are not at {given:g} fps; "
+                            "leave out --csv-fps (the timecodes give the rate)")
+        return float(given)
+    if len(seconds) > 1 and np.any(np.diff(seconds) > 0):
+        return float(next((rate for rate in STANDARD_RATES if rate > largest), largest + 1))
+    return float(max(TIMECODE_RATE, largest + 1))
+
+
+def take_rate(times: np.ndarray) -> float:
+    """Frames per second of a take sampled at ``times`` (s): the median step gives the count of frames the
+    take spans, the span then the rate (timecodes hold a sixty-thousandth of a second, too coarse for one
+    step to tell 29.97 from 30), snapped to a standard or NTSC rate within 0.01 %."""
+    steps = np.diff(times)
+    if not len(steps) or np.median(steps) <= 0:
+        return float(TIMECODE_RATE)
+    span = float(times[-1] - times[0])
+    rate = round(span / float(np.median(steps))) / span
+    for known in tuple(r * 1000 / 1001 for r in (24, 30, 60)) + STANDARD_RATES:
+        if abs(rate - known) <= 1e-4 * known:
+            return float(known)
+    return rate
+
+
+def _read_rows(path: Path) -> list[list[str]]:
+    text = read_text(path, "the Live Link CSV", MAX_CSV_BYTES)
     try:
-        with open(path, newline="", encoding="utf-8") as handle:
-            rows = list(csv.reader(handle))
-    except (UnicodeDecodeError, csv.Error) as error:
-        raise UserError(f"{path}: not a readable UTF-8 CSV ({error})") from None
+        return list(csv.reader(text.splitlines()))
+    except csv.Error as error:
+        raise UserError(f"{path}: not a readable CSV ({error})") from None
+
+
+def read_live_link_csv(path: str | Path, fps: float | None = None) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """Times (s, from the first row) and ARKit weights (camelCase name -> values) of a Live Link Face CSV;
+    ``fps``: the rate its timecodes count frames in, when known (default: found from the timecodes, see
+    :func:`timecode_rate`)."""
+    path = Path(path)
+    rows = _read_rows(path)
     if len(rows) < 2 or not rows[0] or rows[0][0] != "Timecode":
         raise UserError(f"{path}: not a Live Link Face CSV (the first column must be 'Timecode')")
     header = {name.lower(): index for index, name in enumerate(rows[0])}
-    times, values = [], {name: [] for name in ARKIT_NAMES}
+    stamps, values = [], {name: [] for name in ARKIT_NAMES}
     for number, row in enumerate(rows[1:], start=2):
         match = _TIMECODE.match(row[0].strip()) if row else None
         if match is None:
             raise UserError(f"{path} line {number}: timecode {row[0] if row else ''!r} is not HH:MM:SS:FF.mmm")
         h, m, s, f, sub = match.groups()
-        times.append(int(h) * 3600 + int(m) * 60 + int(s) + (int(f) + float(f"0.{sub or 0}")) / fps)
+        stamps.append((int(h) * 3600 + int(m) * 60 + int(s), int(f) + float(f"0.{sub or 0}")))
         for name in ARKIT_NAMES:
             index = header.get(name.lower())
             try:
@@ -139,5 +179,10 @@ def read_live_link_csv(path: str | Path, fps: float = 60.0) -> tuple[np.ndarray,
             if not math.isfinite(value):
                 raise UserError(f"{path} line {number}: {name} is not a finite number")
             values[name].append(value)
-    times = np.asarray(times) - times[0]
-    return times, {name: np.asarray(v) for name, v in values.items()}
+    seconds, frames = (np.array(column, dtype=np.float64) for column in zip(*stamps))
+    rate = timecode_rate(np.floor(frames), seconds, fps)
+    times = seconds + frames / rate
+    if np.any(np.diff(times) <= 0):
+        bad = int(np.flatnonzero(np.diff(times) <= 0)[0]) + 3
+        raise UserError(f"{path} line {bad}: the timecode does not come after the one before it")
+    return times - times[0], {name: np.asarray(v) for name, v in values.items()}

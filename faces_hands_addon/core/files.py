@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import os
 
+from .errors import UserError
+
 __all__ = ["FileClaims", "Folders", "inode_of"]
 
 
@@ -31,6 +33,7 @@ class Folders:
         self.real: dict[str, str] = {}
         self._names: dict[str, tuple[frozenset, frozenset]] = {}
         self._writable: dict[str, bool | None] = {}
+        self._verdicts: dict = {}
         self._cwd = os.getcwd()
 
     def split(self, path) -> tuple[str, str]:
@@ -60,6 +63,18 @@ class Folders:
     def inode(self, real: str, name: str) -> tuple[int, int] | None:
         """(device, inode) of ``name`` in the resolved folder ``real`` when it is there, else None."""
         return inode_of(os.path.join(real, name)) if self.listed(real, name) else None
+
+    def once(self, key, check) -> None:
+        """Run ``check()`` once per ``key`` (a folder's verdict); a :class:`UserError` it raised is raised
+        again for every later file of that folder."""
+        if key not in self._verdicts:
+            try:
+                check()
+                self._verdicts[key] = None
+            except UserError as error:
+                self._verdicts[key] = error
+        if self._verdicts[key] is not None:
+            raise self._verdicts[key]
 
     def writable(self, real: str) -> bool | None:
         """Can files be written into the resolved folder ``real`` (None: it does not exist)? Asked once."""

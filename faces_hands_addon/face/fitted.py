@@ -94,6 +94,21 @@ def _check_landmarks(landmarks) -> np.ndarray:
     return landmarks
 
 
+def _flatness(points: np.ndarray) -> float:
+    """Smallest over largest principal extent of ``points`` (0 on a plane, a line or a point)."""
+    spread = np.linalg.svd(points - points.mean(axis=0), compute_uv=False)
+    return float(spread[2] / spread[0]) if spread[0] > 0 else 0.0
+
+
+def _check_spread(landmarks: np.ndarray, canonical: np.ndarray) -> None:
+    """Refuse landmarks that lie (nearly) on a point, a line or a plane (dragged together by hand, or seen on
+    a mesh that is a single triangle, where they land when snapped to its surface): a face has depth, its smallest principal extent at least a
+    quarter of the canonical face's share (0.47 of its largest)."""
+    if _flatness(landmarks) < 0.25 * _flatness(canonical):
+        raise UserError("the landmarks lie (nearly) on a point, a line or a plane, not on a face; place them on "
+                        "the face's features (Edit Mode of the landmarks object) or locate them again on a head mesh")
+
+
 def _symmetric_within(landmarks: np.ndarray, tolerance: float) -> np.ndarray:
     """Head-space landmarks that are mirror images of each other to within ``tolerance`` (m; a symmetric
     head's landmarks, :mod:`..fitting.symmetry`) made exactly so, so that the template built on them is
@@ -166,12 +181,14 @@ def _fit_head(vertices, faces, landmarks, *, seed: int, progress, resolution: st
     else:
         from ..fitting import project_to_surface
         landmarks = _check_landmarks(landmarks)
-        _, tri_local, bary = project_to_surface(landmarks, vertices, proper)
+        on_surface, tri_local, bary = project_to_surface(landmarks, vertices, proper)
+        _check_spread(on_surface, np.asarray((inputs or default_inputs()).canonical_vertices, np.float64))
     landmark_triangles = proper_index[tri_local]
     # -- 2. normalise to head space ------------------------------------------------------------------------
     report(0.6, "building the head template")
     inputs = inputs or default_inputs()
     canonical = np.asarray(inputs.canonical_vertices, np.float64)
+    _check_spread(landmarks, canonical)
     to_head = similarity_transform(landmarks, canonical)
     head_to_mesh = np.linalg.inv(to_head)
     head_vertices = _transform(to_head, vertices)

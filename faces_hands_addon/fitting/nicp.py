@@ -44,6 +44,7 @@ import numpy as np
 from scipy import sparse
 from scipy.sparse.linalg import cg, splu
 
+from ..core.errors import UserError
 from .align import correspondence_mask
 from ..core.geometry import vertex_normals
 from .surface import SurfaceHit, TargetSurface, least_squares
@@ -183,7 +184,7 @@ def nonrigid_icp(template: FaceTemplate, surface: TargetSurface, start: np.ndarr
                     weight = _REVERSE_WEIGHT * matched.sum() / keep.sum()
                     system = system + weight * (rows.T @ rows)
                     rhs = rhs + weight * (rows.T @ samples[keep])
-            moved = homogeneous @ splu(system.tocsc()).solve(rhs)
+            moved = homogeneous @ _lu_solve(system, rhs)
             step = float(np.abs(moved - current).max())
             current = moved
             iterations += 1
@@ -233,12 +234,25 @@ def _block_jacobi(system: sparse.csr_matrix, block: int) -> sparse.csr_matrix:
     return sparse.csr_matrix((inverse.ravel(), (rows, cols)), shape=system.shape)
 
 
+def _lu_solve(system: sparse.spmatrix, vector: np.ndarray) -> np.ndarray:
+    """Sparse LU solve; a singular system (a head mesh whose parts cannot hold the template: degenerate or
+    detached) is the artist's mesh's problem, said as such, not SuperLU's 'Factor is exactly singular'."""
+    try:
+        return splu(system.tocsc()).solve(vector)
+    except RuntimeError as error:
+        if "singular" not in str(error).lower():
+            raise
+        raise UserError("the face template cannot be registered onto this mesh (its equations are singular): "
+                        "remove degenerate, duplicate or detached parts of the head mesh, or place the "
+                        "landmarks by hand") from None
+
+
 def _solve_spd(system: sparse.csr_matrix, vector: np.ndarray, guess: np.ndarray) -> np.ndarray:
     """Symmetric positive definite solve: block-Jacobi conjugate gradients warm-started from ``guess``
     (the previous iteration's maps, so few iterations are needed), sparse LU when CG does not converge."""
     solution, info = cg(system, vector, x0=guess, rtol=1e-6, maxiter=600, M=_block_jacobi(system, 12))
     if info != 0 or not np.isfinite(solution).all():
-        solution = splu(system.tocsc()).solve(vector)
+        solution = _lu_solve(system, vector)
     return solution
 
 

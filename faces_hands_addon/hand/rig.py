@@ -30,6 +30,7 @@ from ..core import geometry
 from ..core.controls import ControlSpec, clamp_controls
 from ..core.errors import UserError
 from ..core.rig import Pose, read_rig_archive, write_rig_archive
+from ..core.skinning import Bone, limit_influences
 from . import HAND_RIG_FORMAT
 from .contact import FingerContact
 from .thumb_contact import ThumbContact
@@ -93,6 +94,7 @@ class HandRig:
         self.hand = build_hand_network(template.skin.vertices, template.skin.faces, material)
         self.material = self.hand.material
         self._weights = sparse.csr_matrix(template.skin.weights)
+        self._skinning = limit_influences(template.skin.weights)
         radii = bone_radii(sk, template.skin.vertices, template.skin.weights)
         self.creases = Creases(sk, template.skin.vertices, template.skin.weights, radii)
         self.thumb_contact = ThumbContact(sk, self.pseudo, radii)
@@ -292,7 +294,9 @@ class HandRig:
         return s @ m @ s
 
     def skin_weights(self) -> np.ndarray:
-        return self.template.skin.weights
+        """(vertices x bones) linear-blend-skinning weights as Blender and every exported file play them:
+        at most four bones per vertex (:mod:`..core.skinning`; the reference skin has up to five)."""
+        return self._skinning
 
     def bone_meshes(self) -> dict[str, tuple[np.ndarray, np.ndarray]]:
         """Bone -> (vertices, faces) of its bone meshes in rest pose (mirrored for a left hand)."""
@@ -310,6 +314,14 @@ class HandRig:
                 frame = np.diag(self._mirror) @ frame
             out[name] = (head, tail, frame)
         return out
+
+    def bones(self) -> list[Bone]:
+        """The skeleton as armature bones (6.2.1): X the flexion axis, Y along the bone, Z minus the frame's
+        abduction axis; the forearm carries the wrist and moves no skin."""
+        joints, sk = self.joints(), self.skeleton
+        return [Bone(name, tuple(joints[name][0]), tuple(joints[name][1]), tuple(-joints[name][2][:, 1]),
+                     sk.names[sk.parent[b]] if sk.parent[b] >= 0 else None, name != "forearm")
+                for b, name in enumerate(sk.names)]
 
     def muscle_quads(self) -> np.ndarray:
         quads = self.geometric.grid_quads()

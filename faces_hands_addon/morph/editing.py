@@ -229,6 +229,31 @@ class EditFace:
             self.run({"op": "attribute", "name": name, "part": one, "value": _finite(value, name),
                       "segments": list(_segment_key(segments))})
 
+    def set_attribute_value(self, name: str, value: float, part: str = "both", segments=()) -> None:
+        """Give the face the attribute value ``f_A = value`` (3.2.2, Eq. 3.5), absolutely, for each part: the
+        slider of ``name`` moves by the amount that gets there. ``f_A`` is linear along the slider's direction
+        (restricted to ``segments`` or not) and so is the constraints' correction after it (Eq. 3.6): one
+        step, and with constraints a second one at the rate the first achieved, get there exactly."""
+        target = _finite(value, name)
+        for one in self.parts(part):
+            start, first = self.value(name, one), self.slider(name, one, segments)
+            _, coefficients = self.direction(name, one, segments)
+            rate = float(self.model.part(one).mahalanobis(coefficients, self.model.attribute(name).vector(one)))
+            if abs(rate) < 1e-12:
+                raise UserError(f"{name} cannot be changed within the segments {', '.join(segments)}")
+            slider = first + (target - start) / rate
+            self._slide(name, one, segments, slider, target)
+            reached = self.value(name, one)
+            if abs(reached - target) > 1e-9 * max(1.0, abs(target)) and slider != first:
+                rate = (reached - start) / (slider - first)
+                if abs(rate) < 1e-9:
+                    raise UserError(f"the constraints hold {name} where it is; release them to set it")
+                self._slide(name, one, segments, slider + (target - reached) / rate, target)
+
+    def _slide(self, name: str, part: str, segments, slider: float, target: float) -> None:
+        self.run({"op": "attribute", "name": name, "part": part, "segments": list(_segment_key(segments)),
+                  "value": _finite(slider, f"the {name} slider that gives {name} = {target:g}"), "target": target})
+
     def _op_attribute(self, op: dict) -> None:
         key = self._key("attribute", op["name"], op["part"], op["segments"])
         delta = float(op["value"]) - self.applied.get(key, 0.0)
@@ -397,6 +422,8 @@ def describe(op: dict) -> str:
     if kind == "create":
         return {"average": "average face", "random": f"random face (seed {op['seed']})",
                 "example": f"example {op['index']}"}.get(op["kind"], op["kind"])
+    if kind == "attribute" and "target" in op:
+        return f"{op['name']} ({op['part']}) set to {op['target']:+.2f} (slider {op['value']:+.2f}){where}"
     if kind == "attribute":
         return f"{op['name']} ({op['part']}) = {op['value']:+.2f}{where}"
     if kind == "caricature":

@@ -12,6 +12,7 @@ import numpy as np
 from scipy.signal import resample_poly
 
 from ..core.errors import UserError
+from ..core.foreign_files import check_path
 
 ANALYSIS_RATE = 16000
 MAX_TAKE_SECONDS = 3600.0        # one take: an hour of speech (longer recordings: split them into takes)
@@ -52,10 +53,8 @@ def _reason(exc: Exception) -> str:
 def audio_header(path: str | os.PathLike) -> AudioHeader:
     """The header of an audio file (length, rate, channels), checked against the take limits before any
     work: an hour at most, and at most ``MAX_DECODED_BYTES`` once decoded. Instant even for huge files."""
-    path = os.fspath(path)
+    path = os.fspath(check_path(path, "the audio file"))
     name = os.path.basename(path)
-    if not os.path.isfile(path):
-        raise UserError(f"audio file {path!r} does not exist")
     try:
         with _soundfile().SoundFile(path) as handle:
             header = AudioHeader(int(handle.frames), int(handle.samplerate), int(handle.channels),

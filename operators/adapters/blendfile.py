@@ -7,6 +7,7 @@ from pathlib import Path
 import bpy
 
 from ...faces_hands_addon.core.errors import UserError
+from ...faces_hands_addon.core.foreign_files import check_path
 from .outputs import atomic_output
 from .render import quiet_stdout
 
@@ -14,9 +15,7 @@ __all__ = ["open_blend", "save_blend"]
 
 
 def open_blend(path: str) -> None:
-    blend = Path(path)
-    if not blend.is_file():
-        raise UserError(f"{blend} does not exist")
+    blend = check_path(path, "the .blend file")
     if blend.suffix.lower() != ".blend":
         raise UserError(f"{blend} is not a .blend file")
     try:

@@ -17,6 +17,7 @@ import numpy as np
 
 from ...faces_hands_addon.anim.layers import BASE_LAYER, LAYERS, DriverExpression, LayerTable
 from ...faces_hands_addon.core.controls import ControlSpec
+from ...faces_hands_addon.core.errors import UserError
 from . import fcurves
 from ...names import CONTROL_PREFIX, control_property
 from ...names import layer_prefix as names_layer_prefix
@@ -76,6 +77,16 @@ def reset_controls(obj, specs: Mapping[str, ControlSpec]) -> None:
             obj[key] = float(spec.default)
 
 
+def control_number(obj, name: str) -> float:
+    """The number a control property holds; a UserError when a script or the UI gave it text or a list."""
+    value = obj[name]
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        raise UserError(f"'{obj.name}' property {name!r} is {value!r}, not a number; set it to a number "
+                        "(Object Properties > Custom Properties)") from None
+
+
 def layer_values(obj, controls) -> dict[str, dict[str, float]]:
     """The layer properties of ``controls`` as they are now (animated at the current frame)."""
     keys = set(obj.keys())
@@ -85,7 +96,7 @@ def layer_values(obj, controls) -> dict[str, dict[str, float]]:
         for control in controls:
             name = prop_name(control, layer)
             if name in keys:
-                values[control] = float(obj[name])
+                values[control] = control_number(obj, name)
         out[layer] = values
     return out
 
@@ -134,7 +145,7 @@ def sample_layers(obj, scene, specs: Mapping[str, ControlSpec], frames, method: 
         table = np.zeros((len(frames), len(controls)))
         for column, control in enumerate(controls):
             name = prop_name(control, layer)
-            table[:, column] = float(obj[name]) if name in keys else (
+            table[:, column] = control_number(obj, name) if name in keys else (
                 specs[control].default if layer == BASE_LAYER else 0.0)
         values[layer] = table
     if method not in ("auto", "frames"):

@@ -29,9 +29,11 @@ from pathlib import Path
 
 import bpy
 import numpy as np
+from mathutils import Matrix
 
 from ...faces_hands_addon.core.errors import UserError
-from ...faces_hands_addon.core.fbx_stamp import fix_creation_stamp
+from ...faces_hands_addon.core.fbx_stamp import reproducible
+from . import export_transforms as transforms
 from .blendfile import save_blend
 from .outputs import atomic_output, check_output_path
 from .poses import SIM_KEY
@@ -86,11 +88,12 @@ def _shift_keys(action, frames: float) -> None:
                     curve.update()
 
 
-def _own_actions(copy, shift: float) -> list:
-    """Give the copy (object and shape keys) private copies of its actions, shifted by ``shift`` frames."""
+def _own_actions(copy, shift: float, key: bool = True) -> list:
+    """Give the copy (object and, with ``key``, shape keys) private copies of its actions, shifted by
+    ``shift`` frames."""
     made = []
-    key = getattr(copy.data, "shape_keys", None)
-    for owner in (copy, key):
+    shape_keys = getattr(copy.data, "shape_keys", None) if key else None
+    for owner in (copy, shape_keys):
         anim = getattr(owner, "animation_data", None) if owner is not None else None
         if anim is None or anim.action is None:
             continue
@@ -99,16 +102,118 @@ def _own_actions(copy, shift: float) -> list:
         anim.action = action
         if slot is not None and anim.action_slot is None:
             anim.action_slot = action.slots[slot]
-        _shift_keys(action, shift)
+        if shift:
+            _shift_keys(action, shift)
         made.append(action)
     return made
 
 
+def _reparent(copy, parent, original) -> None:
+    """Parent ``copy`` to ``parent`` exactly as ``original`` is parented: assigning ``Object.parent`` resets
+    the parent-inverse matrix, which would move a part parented while its parent was turned (a head
+    imported with a 90-degree rotation) by that turn a second time."""
+    copy.parent = parent
+    copy.parent_type = original.parent_type
+    if original.parent_type == "BONE":
+        copy.parent_bone = original.parent_bone
+    copy.matrix_parent_inverse = original.matrix_parent_inverse.copy()
+
+
+@dataclass(frozen=True)
+class _Placement:
+    """Where the copies go: ``frames`` exported (the originals' numbering), ``shift`` from those to the
+    copies' keys, ``scale`` about the root's origin (the export option), ``unit`` metres per scene unit
+    (glTF is in metres and Blender's glTF exporter ignores the scene's unit scale; FBX applies it itself)."""
+    frames: tuple
+    shift: float = 0.0
+    scale: float = 1.0
+    unit: float = 1.0
+
+
+def _chain(objects, copies: dict) -> list:
+    """The rig object, then the armature that deforms it when that armature is one of its exported parts:
+    in the file the armature is the root and the skin its child, as clients expect of a skinned mesh (the
+    hand's skin is the rig object and its armature a child of it in the scene)."""
+    root = objects[0]
+    for modifier in root.modifiers:
+        armature = getattr(modifier, "object", None)
+        if modifier.type == "ARMATURE" and armature in copies and armature.parent is root:
+            return [root, armature]
+    return [root]
+
+
+def _place(context, objects, copies: dict, placement: _Placement, made: list) -> None:
+    """The top copy in world space without its parent (scaled as asked), every copy whose transform
+    changes over the frames keyed per exported frame (``export_transforms``); actions made for keys are
+    added to ``made``."""
+    chain = _chain(objects, copies)
+    links = [copies[o] for o in chain]
+    top = links[-1]
+    outer = Matrix.Diagonal((placement.unit,) * 3 + (1.0,))
+    inner = Matrix.Diagonal((placement.scale,) * 3 + (1.0,))
+    keyed_frames = [f + placement.shift for f in placement.frames]
+    tracks = {}
+    if any(transforms.moves(link) for link in links) or transforms.ancestors_move(objects[0]):
+        tracks[top] = [outer @ world @ inner for world in
+                       transforms.world_track(context, chain, links, placement.frames, placement.shift)]
+    for copy in copies.values():
+        if copy not in links and transforms.moves(copy):
+            tracks[copy] = transforms.local_track(copy, keyed_frames)
+    top_world = outer @ chain[-1].matrix_world @ inner
+    if len(links) == 2:                                   # the skin under its armature, where it was
+        skin, armature = links
+        if transforms.moves(armature):
+            tracks[skin] = [m.inverted() for m in transforms.local_track(armature, keyed_frames)]
+        relative = (armature.matrix_parent_inverse @ armature.matrix_basis).inverted()
+        armature.parent = None
+        skin.parent = armature
+        skin.matrix_parent_inverse = Matrix.Identity(4)
+        skin.matrix_basis = relative
+    top.parent = None
+    top.matrix_world = top_world
+    _scale_into_mesh(top, tracks)
+    for copy, matrices in tracks.items():
+        anim = copy.animation_data
+        if anim is not None and anim.action is not None and anim.action not in made:
+            made += _own_actions(copy, 0.0, key=False)        # the keys are rewritten on the copy only
+        transforms.key_track(copy, keyed_frames, matrices, f"{copy.name} Export Transform")
+        if copy.animation_data.action not in made:
+            made.append(copy.animation_data.action)
+
+
+def _scale_into_mesh(top, tracks: dict) -> None:
+    """Move a non-uniform scale of the top copy (a mesh) into its mesh data and shape keys. glTF nodes are
+    translation, rotation and scale: a part parented while its parent was turned and squashed sits at a
+    sheared matrix relative to it, which the file cannot hold (7.6 mm off on a 0.1 m head). Only magnitudes
+    move (a mirror stays on the node, where clients flip the winding)."""
+    if top.type != "MESH":
+        return
+    scale = np.abs(np.array(top.matrix_world.decompose()[2]))
+    if scale.max() <= scale.min() * (1.0 + 1e-6):
+        return
+    stretch = Matrix.Diagonal(tuple(scale) + (1.0,))
+    mesh = top.data
+    owners = [mesh.vertices] + ([b.data for b in mesh.shape_keys.key_blocks] if mesh.shape_keys else [])
+    for owner in owners:
+        co = np.empty(3 * len(owner))
+        owner.foreach_get("co", co)
+        owner.foreach_set("co", (co.reshape(-1, 3) * scale).ravel())
+    mesh.update()
+    world = top.matrix_world.copy()
+    for child in top.children:
+        child.matrix_parent_inverse = stretch @ child.matrix_parent_inverse
+        if child in tracks:
+            tracks[child] = [stretch @ m for m in tracks[child]]
+    top.matrix_world = world @ stretch.inverted()
+    if top in tracks:
+        tracks[top] = [m @ stretch.inverted() for m in tracks[top]]
+
+
 @contextlib.contextmanager
-def _clean_copies(context, objects, scale: float, shift: float = 0.0):
+def _clean_copies(context, objects, placement: _Placement):
     """Copies of ``objects`` (same names, parenting, actions) without internal keys, in a temporary
-    collection; the originals are renamed aside meanwhile and get their names back afterwards. With
-    ``shift`` the copies animate from private actions moved by that many frames."""
+    collection; the originals are renamed aside meanwhile and get their names back afterwards. The copies
+    animate from private actions moved by ``placement.shift`` frames, placed by :func:`_place`."""
     collection = bpy.data.collections.new("FH Export")
     context.scene.collection.children.link(collection)
     originals = [(obj, obj.name, obj.data.name) for obj in objects]
@@ -121,10 +226,10 @@ def _clean_copies(context, objects, scale: float, shift: float = 0.0):
             copy.name, copy.data.name = name, data_name
             collection.objects.link(copy)
             copies[obj] = copy
-            if shift:
-                actions += _own_actions(copy, shift)
+            if placement.shift:
+                actions += _own_actions(copy, placement.shift)
         for obj, copy in copies.items():
-            copy.parent = copies.get(obj.parent, obj.parent)
+            _reparent(copy, copies.get(obj.parent, obj.parent), obj)
             for modifier in copy.modifiers:               # a skin follows the copied armature
                 if getattr(modifier, "object", None) in copies:
                     modifier.object = copies[modifier.object]
@@ -132,10 +237,7 @@ def _clean_copies(context, objects, scale: float, shift: float = 0.0):
             if key is not None:
                 for block in [b for b in key.key_blocks[1:] if b.name == SIM_KEY or b.mute]:
                     copy.shape_key_remove(block)
-        root = copies[objects[0]]
-        root.parent = None
-        root.matrix_world = objects[0].matrix_world.copy()
-        root.scale = tuple(s * scale for s in root.scale)
+        _place(context, objects, copies, placement, actions)
         context.view_layer.update()
         yield list(copies.values())
     finally:
@@ -149,6 +251,13 @@ def _clean_copies(context, objects, scale: float, shift: float = 0.0):
             bpy.data.actions.remove(action)
         for obj, name, data_name in originals:
             obj.name, obj.data.name = name, data_name
+
+
+def _metres_per_unit(scene) -> float:
+    """Metres per Blender unit of ``scene`` (what Blender's FBX exporter applies, and its glTF importer
+    divides by)."""
+    units = scene.unit_settings
+    return 1.0 if units.system == "NONE" else float(units.scale_length)
 
 
 def _select_only(context, objects) -> list:
@@ -202,11 +311,10 @@ def _write(path: Path, clip: str, sampled: bool = True, armature: bool = False) 
             _name_clip(path, clip)
     else:
         bpy.ops.export_scene.fbx(
-            filepath=str(path), use_selection=True, object_types={"MESH", "ARMATURE"} if armature else {"MESH"},
-            use_mesh_modifiers=False,
+            filepath=str(path), use_selection=True, object_types={"MESH", "ARMATURE"}, use_mesh_modifiers=False,
             bake_anim=True, bake_anim_use_all_actions=False, bake_anim_use_nla_strips=False,
-            add_leaf_bones=False)
-        path.write_bytes(fix_creation_stamp(path.read_bytes()))   # same scene, same bytes
+            bake_anim_simplify_factor=0.0, add_leaf_bones=False)
+        path.write_bytes(reproducible(path.read_bytes()))   # same scene, same bytes
 
 
 def export_rig(context, obj, filepath: str, roles, options: ExportOptions = ExportOptions()) -> Path:
@@ -229,7 +337,9 @@ def export_rig(context, obj, filepath: str, roles, options: ExportOptions = Expo
         # sampled glTF slides the clip to 0 s itself; FBX and glTF from keys write frame/fps (module docstring)
         shift = -first if out.suffix.lower() == ".fbx" or not sampled else 0
         scene.frame_start, scene.frame_end = first + shift, last + shift
-        with _clean_copies(context, objects, options.scale, shift) as copies, atomic_output(out) as tmp:
+        placement = _Placement(tuple(range(first, last + 1)), shift, options.scale,
+                               _metres_per_unit(scene) if out.suffix.lower() == ".glb" else 1.0)
+        with _clean_copies(context, objects, placement) as copies, atomic_output(out) as tmp:
             _select_only(context, copies)
             _write(tmp, clip, sampled, objects[0].type == "ARMATURE")
     except RuntimeError as error:

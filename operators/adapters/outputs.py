@@ -16,23 +16,55 @@ from ...faces_hands_addon.core.files import FileClaims, Folders
 
 
 def check_output_path(path: str | os.PathLike, suffixes: tuple[str, ...], folders: Folders | None = None) -> Path:
-    """Validate an output path before any work starts (suffix known, not a directory, a folder that takes
-    files); ``folders``: the folders of a whole jobs CSV, each looked at once."""
-    out = Path(path).expanduser()
+    """Validate an output path before any work starts, so a path problem is a message and not a failure
+    after the work: a name with a known suffix, not empty, not a folder or a special file, no symbolic
+    link loop, in a folder that takes a new file (missing folders are made when the file is written).
+    ``folders``: the folders of a whole jobs CSV (``core.files.Folders``): each folder is looked at once."""
+    text = os.fspath(path) if path is not None else ""
+    if not str(text).strip():
+        raise UserError("the output path is empty; name a file")
+    if "\0" in str(text):
+        raise UserError(f"the output path {text!r} contains a NUL byte")
+    out = Path(text).expanduser()
     if out.suffix.lower() not in suffixes:
         raise UserError(f"output {out} must end with one of {', '.join(suffixes)}")
     if folders is not None:
         real, name = folders.split(out)
-        if folders.listed(real, name) and os.path.isdir(os.path.join(real, name)):
-            raise UserError(f"output {out} is a directory; give a file name")
-        if folders.writable(real) is False:
-            raise UserError(f"cannot write into {out.parent}")
+        if folders.listed(real, name):
+            full = os.path.join(real, name)
+            if os.path.isdir(full):
+                raise UserError(f"output {out} is a directory; give a file name")
+            if not os.path.isfile(full):
+                raise UserError(f"output {out} exists and is not a regular file (or is a link that leads nowhere)")
+        folders.once(("takes files", real), lambda: _check_folder_takes_files(Path(real), out))
         return out
-    if out.is_dir():
+    try:
+        resolved = out.resolve()
+    except (RuntimeError, OSError):              # RuntimeError: a symlink loop (Python before 3.13)
+        raise UserError(f"output {out} is a symbolic link that points back to itself") from None
+    if resolved.is_dir():
         raise UserError(f"output {out} is a directory; give a file name")
-    if out.parent.exists() and not os.access(out.parent, os.W_OK):
-        raise UserError(f"cannot write into {out.parent}")
+    if resolved.exists() and not resolved.is_file():
+        raise UserError(f"output {out} exists and is not a regular file")
+    _check_folder_takes_files(resolved.parent, out)
     return out
+
+
+def _check_folder_takes_files(folder: Path, out: Path) -> None:
+    """The folder of ``out`` takes a new file: it exists, or can be made (the missing folders are made only
+    when the finished file is moved into place, :func:`atomic_output`) under the nearest existing folder,
+    where a file can be made (tried: permissions, read-only disks and pseudo file systems all answer the
+    same way)."""
+    existing = folder
+    while not existing.exists():
+        existing = existing.parent
+    if not existing.is_dir():
+        raise UserError(f"{existing} is a file, so the folder {out.parent} for {out.name} cannot be made")
+    try:
+        with tempfile.NamedTemporaryFile(dir=existing, prefix=".fh-write-test-"):
+            pass
+    except OSError as error:
+        raise UserError(f"cannot write into {existing}: {error.strerror or error}") from None
 
 
 def check_output_dir(path: str | os.PathLike) -> Path:
@@ -112,7 +144,10 @@ def atomic_output(final_path: str | os.PathLike):
         if not tmp_path.exists():
             raise RuntimeError(f"nothing was written to {tmp_path}")
         final_path.parent.mkdir(parents=True, exist_ok=True)
-        shutil.move(str(tmp_path), str(final_path))
+        try:
+            shutil.move(str(tmp_path), str(final_path))
+        except OSError as error:
+            raise UserError(f"cannot write {final_path}: {error.strerror or error}") from None
         _LEDGER.append(final_path)
     finally:
         shutil.rmtree(tmp_dir, ignore_errors=True)

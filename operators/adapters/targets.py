@@ -13,7 +13,7 @@ from .outputs import atomic_output, check_output_path
 from .poses import SIM_KEY
 from .timing import scene_fps
 
-__all__ = ["animated_weights", "transfer_weights", "write_live_link", "characters_with_targets"]
+__all__ = ["animated_weights", "keyed_weights", "transfer_weights", "write_live_link", "characters_with_targets"]
 
 VALUE_PATH = 'key_blocks["{}"].value'
 
@@ -38,6 +38,32 @@ def animated_weights(obj, scene) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     if not weights:
         raise UserError(f"'{obj.name}' has no weight animation; bake its animation (as weights) first")
     return frames, weights
+
+
+def _weight_curves(obj) -> dict:
+    key = getattr(getattr(obj, "data", None), "shape_keys", None)
+    bag = fcurves.existing_channelbag(key) if key is not None else None
+    out = {}
+    for curve in (bag.fcurves if bag is not None else ()):
+        path = curve.data_path
+        if path.startswith('key_blocks["') and path.endswith('"].value') and not curve.mute:
+            name = path[len('key_blocks["'):-len('"].value')]
+            if name != SIM_KEY and not name.startswith("FH.frame_") and name in key.key_blocks:
+                out[name] = curve
+    return out
+
+
+def keyed_weights(objects, fps: float) -> tuple[str, np.ndarray, dict[str, np.ndarray]]:
+    """The take a file holds, read back: of ``objects`` (just imported) the mesh with the most animated
+    shape keys, the times (s) of its keys (their frames at ``fps``, the rate the importer counted them in)
+    and each key's weight there. A UserError when none is animated."""
+    curves = {o.name: _weight_curves(o) for o in objects if o.type == "MESH"}
+    name = max(curves, key=lambda n: len(curves[n]), default=None)
+    if name is None or not curves[name]:
+        raise UserError("the file has no mesh whose shape keys are animated; export the take with its weights")
+    frames = np.unique(np.concatenate([[k.co[0] for k in c.keyframe_points] for c in curves[name].values()]))
+    weights = {target: np.array([c.evaluate(float(f)) for f in frames]) for target, c in curves[name].items()}
+    return name, (frames - frames[0]) / fps, weights
 
 
 def characters_with_targets(objects, names) -> list:

@@ -15,6 +15,7 @@ import time
 import traceback
 
 from ...faces_hands_addon.core.errors import UserError
+from ...faces_hands_addon.core.foreign_files import check_path
 from .interrupts import Terminated, clear, interruptible, private_temp_root, raise_pending
 from ..adapters.outputs import ledger_mark, written_since
 from ..adapters.paths import write_session_bytecode
@@ -78,8 +79,23 @@ def build_parser() -> argparse.ArgumentParser:
     for module in _subcommands():
         sub = subparsers.add_parser(module.NAME, help=module.HELP, description=module.HELP)
         module.add_arguments(sub)
-        sub.set_defaults(_run=module.run)
+        sub.set_defaults(_run=module.run, _inputs=tuple(getattr(module, "INPUTS", ())),
+                         _input_words=dict(getattr(module, "INPUT_WORDS", {})))
     return parser
+
+
+def check_arguments(args) -> None:
+    """Refuse before any work: an option given as an empty string (``--mesh ''`` must not mean 'the
+    default'), and an input file (the command's ``INPUTS``; ``default`` names the built-in data, and the
+    command's ``INPUT_WORDS`` other built-ins such as ``--rig mask``) that is missing, a folder, a symlink
+    loop, unreadable or empty."""
+    for name, value in vars(args).items():
+        if isinstance(value, str) and not name.startswith("_") and not value.strip():
+            raise UserError(f"--{name.replace('_', '-')} is empty; give a value or leave the option out")
+    for name in args._inputs:
+        value = getattr(args, name, None)
+        if value is not None and value != "default" and value not in args._input_words.get(name, ()):
+            check_path(value, f"--{name.replace('_', '-')}")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -101,6 +117,7 @@ def _run_command(argv: list[str] | None) -> int:
         if args.command is None:
             parser.print_help()
             return 2
+        check_arguments(args)
         started = time.perf_counter()
         with interruptible(), private_temp_root():
             code = args._run(args, Progress(quiet=args.quiet))

@@ -24,6 +24,7 @@ class RigCommand:
     ``write`` saves or exports the rig (override for pictures)."""
 
     NAME = HELP = ""
+    INPUTS = ("blend",)                   # files the command line checks before any work
     OUTPUTS: tuple[str, ...] = (".glb", ".fbx", ".blend")
     BLEND_HELP = "a .blend with the rig (default: build the default rig)"
     EXPORT_ROLES: tuple[str, ...] = ()

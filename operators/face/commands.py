@@ -18,6 +18,7 @@ MESH_SUFFIXES = (".obj", ".ply", ".stl", ".glb", ".gltf", ".fbx")
 
 
 class BuildFace:
+    INPUTS = ("mesh",)
     NAME = "build-face"
     HELP = "build a MEDUSA face rig (default head, or fitted to --mesh) and save it as a .blend"
 
@@ -93,6 +94,8 @@ class Render(_FaceCommand):
         parser.add_argument("--sheet", choices=("expressions", "muscles"), default="expressions",
                             help="expressions: neutral, muscles, direct parameters, ARKit and visemes; "
                                  "muscles: neutral, muscles and direct parameters only")
+        parser.add_argument("--cells", help="comma-separated cells to render, in this order (default: the whole "
+                                             "sheet), e.g. neutral,jaw_open,viseme_PP,eyeBlinkLeft")
         parser.add_argument("--columns", type=int, default=10)
         parser.add_argument("--view", choices=tuple(sheet.VIEWS), default="front",
                             help="camera: front (default), three-quarter or side")
@@ -109,28 +112,44 @@ class Render(_FaceCommand):
     @classmethod
     def write(cls, args, obj, out, progress) -> None:
         include = ("neutral", "muscles", "direct") + (("arkit", "visemes") if args.sheet == "expressions" else ())
-        cells = sheet.expression_cells(get_rig(obj), include)
+        cells = _chosen(sheet.expression_cells(get_rig(obj)), args.cells) if args.cells else \
+            sheet.expression_cells(get_rig(obj), include)
         with atomic_output(out) as tmp:
             sheet.render_sheet(bpy.context, obj, cells, tmp, columns=args.columns, progress=progress,
                                view=args.view)
 
 
+def _chosen(cells, names: str) -> list:
+    """The cells named in ``names`` (comma-separated), in that order; unknown names are refused."""
+    known = dict(cells)
+    wanted = [name.strip() for name in names.split(",") if name.strip()]
+    unknown = [name for name in wanted if name not in known]
+    if unknown or not wanted:
+        raise UserError(f"--cells: no cell named {', '.join(unknown) or names!r}; cells are "
+                        f"{', '.join(list(known)[:8])}, ... (every muscle, direct parameter, ARKit and viseme)")
+    return [(name, known[name]) for name in wanted]
+
+
 class Retarget:
+    INPUTS = ("source", "character")
     NAME = "retarget"
-    HELP = ("put a take (a face rig's weight animation, or a Live Link Face CSV) onto a character with ARKit or "
-            "viseme shape keys and save it as .glb, .fbx or .blend")
+    HELP = ("put a take (a face rig's weight animation, a Live Link Face CSV, or an exported GLB/FBX take) onto a "
+            "character with ARKit or viseme shape keys and save it as .glb, .fbx or .blend")
 
     @staticmethod
     def add_arguments(parser):
         parser.add_argument("--source", required=True,
-                            help="a .blend with a face rig whose animation is baked as weights, or a Live Link CSV")
+                            help="a .blend with a face rig whose animation is baked as weights, a Live Link CSV, "
+                                 "a take exported as .glb/.fbx, or Rhubarb mouth cues (.tsv/.json)")
         parser.add_argument("--rig", help="name of the rig object when the source file has several")
-        parser.add_argument("--csv-fps", type=float, default=60.0,
-                            help="frame rate the CSV's timecodes count in (Live Link Face: 60 unless set to 30)")
+        parser.add_argument("--csv-fps", type=float, default=None,
+                            help="frame rate the CSV's timecodes count in (default: found in the timecodes; "
+                                 "Live Link Face's 60 for a take shorter than a second)")
         parser.add_argument("--character", required=True,
                             help="the character: .blend, .glb/.gltf, .fbx or .obj with shape keys")
         parser.add_argument("--object", help="name of the character's mesh when the file has several")
-        parser.add_argument("--fps", type=float, default=30.0, help="frame rate of the output animation")
+        parser.add_argument("--fps", type=float, default=None,
+                            help="frame rate of the output animation (default: the take's own; 30 for cues)")
         parser.add_argument("--out", required=True, help="output .glb, .fbx or .blend")
 
     @staticmethod

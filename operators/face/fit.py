@@ -18,6 +18,7 @@ import numpy as np
 from mathutils import Matrix
 
 from ...faces_hands_addon.core.errors import UserError
+from ..adapters.foreign_import import import_foreign
 from ..adapters.meshes import mesh_triangles, mesh_vertices
 from ..adapters.outputs import atomic_output, same_file
 from ..adapters.rig_store import OUTPUT_TO_LOCAL, PART_ROLE, parts
@@ -25,7 +26,6 @@ from .objects import create_rig_objects
 from ...names import RIG_WARNINGS
 
 LANDMARKS_ROLE = "landmarks"
-MAX_IMPORT_BYTES = 2_000_000_000
 
 
 def world_geometry(obj) -> tuple[np.ndarray, np.ndarray]:
@@ -157,34 +157,12 @@ def attach_rig(context, head, rig, world_matrix: np.ndarray, name: str | None = 
     return obj
 
 
-IMPORTERS = {
-    ".obj": lambda path: bpy.ops.wm.obj_import(filepath=path),
-    ".ply": lambda path: bpy.ops.wm.ply_import(filepath=path),
-    ".stl": lambda path: bpy.ops.wm.stl_import(filepath=path),
-    ".glb": lambda path: bpy.ops.import_scene.gltf(filepath=path),
-    ".gltf": lambda path: bpy.ops.import_scene.gltf(filepath=path),
-    ".fbx": lambda path: bpy.ops.import_scene.fbx(filepath=path),
-}
-
-
-def import_meshes(path: str) -> list:
-    """Import a mesh file with Blender's own importer (default axis conversion); returns the new meshes."""
-    file = Path(path)
-    if not file.is_file():
-        raise UserError(f"{file} does not exist")
-    importer = IMPORTERS.get(file.suffix.lower())
-    if importer is None:
-        raise UserError(f"{file.suffix or file.name}: use one of {', '.join(sorted(IMPORTERS))}")
-    if file.stat().st_size > MAX_IMPORT_BYTES:
-        raise UserError(f"{file} is larger than 2 GB")
-    before = set(bpy.data.objects)
-    try:
-        importer(str(file.resolve()))
-    except (RuntimeError, ValueError) as error:
-        raise UserError(f"cannot import {file}: {str(error).splitlines()[-1]}") from None
-    meshes = [o for o in bpy.data.objects if o not in before and o.type == "MESH"]
+def import_meshes(path: str, what: str = "the mesh file") -> list:
+    """Import a mesh file with Blender's own importer (default axis conversion), checked and run in a child
+    process (``adapters.foreign_import``); returns the new meshes."""
+    meshes = [o for o in import_foreign(path, what).objects if o.type == "MESH"]
     if not meshes:
-        raise UserError(f"{file} contains no mesh")
+        raise UserError(f"{path} contains no mesh")
     return meshes
 
 

@@ -62,6 +62,9 @@ def expressions(preset: str) -> dict[str, dict[str, float]]:
 
 
 ANIMATION_KINDS = ("weights", "frames")
+TAKE_FILES = (".glb", ".fbx")
+CUE_FILES = (".tsv", ".txt", ".json")
+CUE_FPS = 30.0
 
 
 def bake_job(context, obj, mode: str, preset: str = "all", animation: str = "weights", take=None):
@@ -92,14 +95,33 @@ def export(context, obj, path: str, options: ExportOptions = ExportOptions()):
 
 
 def _take_weights(args, progress):
-    """Frames (from 0), weights and frame rate of the take ``--source`` names (rig .blend or Live Link CSV)."""
-    from ...faces_hands_addon.anim.retarget import read_live_link_csv
-    from ..adapters.targets import animated_weights
+    """Frames (from 0), weights and frame rate of the take ``--source`` names: a rig .blend, a Live Link CSV,
+    a take exported as GLB/FBX (ours or any file whose mesh animates named shape keys), or Rhubarb mouth
+    cues (each shape's viseme held until the next cue). A file's take plays at ``--fps`` or, by default, at
+    its own rate (the steps between its rows or keys; 30 for cues)."""
+    from ...faces_hands_addon.anim.retarget import read_live_link_csv, take_rate
+    from ..adapters.foreign_import import import_foreign
+    from ..adapters.targets import animated_weights, keyed_weights
     from ..adapters.timing import scene_fps
-    if Path(args.source).suffix.lower() == ".csv":
-        times, weights = read_live_link_csv(args.source, args.csv_fps)
-        fps = float(args.fps)
-        frames = np.arange(0, int(np.ceil(times[-1] * fps)) + 1, dtype=np.float64) if len(times) else np.zeros(1)
+    for option in ("fps", "csv_fps"):
+        value = getattr(args, option, None)
+        if value is not None and not 1.0 <= value <= 240.0:          # NaN fails too
+            raise UserError(f"--{option.replace('_', '-')} {value} is outside 1..240 frames per second")
+    suffix = Path(args.source).suffix.lower()
+    if suffix in CUE_FILES:                        # Rhubarb mouth cues: no rate of their own
+        from ...faces_hands_addon.speech.cues import cue_weights, read_cues
+        fps = float(args.fps or CUE_FPS)
+        frames, weights = cue_weights(read_cues(args.source), fps)
+        return frames, weights, fps
+    if suffix == ".csv" or suffix in TAKE_FILES:
+        if suffix == ".csv":
+            times, weights = read_live_link_csv(args.source, args.csv_fps)
+        else:
+            bpy.ops.wm.read_homefile(use_empty=True)
+            imported = import_foreign(args.source, "--source", TAKE_FILES)
+            _, times, weights = keyed_weights(imported.objects, imported.fps)
+        fps = float(args.fps) if args.fps else take_rate(times)
+        frames = np.arange(0, int(np.floor(times[-1] * fps + 0.01)) + 1, dtype=np.float64)   # float32 key times
         return frames, {n: np.interp(frames / fps, times, v) for n, v in weights.items()}, fps
     rig = rig_object(args.source, args.rig, progress)
     frames, weights = animated_weights(rig, bpy.context.scene)

@@ -16,6 +16,7 @@ from .objects import EXPORT_ROLES
 
 
 class BuildHand:
+    INPUTS = ("photo", "points")
     NAME = "build-hand"
     HELP = "build an anatomical hand rig (the reference hand, or warped to a photo) and save it as a .blend"
 

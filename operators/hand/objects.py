@@ -13,10 +13,11 @@ from __future__ import annotations
 
 import bpy
 import numpy as np
-from mathutils import Matrix, Vector
+from mathutils import Matrix
 
 from ...faces_hands_addon.hand.bake import bone_basis, unskinned
 from ..adapters import controls
+from ..adapters.armature import build_armature, deform_with, set_vertex_groups
 from ..adapters.materials import enable_nodes
 from ..adapters.meshes import mesh_from_arrays
 from ..adapters.poses import simulation_key
@@ -51,30 +52,10 @@ def set_corner_uvs(mesh, corner_uvs: np.ndarray) -> None:
 
 
 def _armature(context, rig, name: str, collection, parent):
-    data = bpy.data.armatures.new(f"{name} Armature")
-    arm = bpy.data.objects.new(f"{name} Armature", data)
-    collection.objects.link(arm)
-    arm.parent = parent
+    arm = build_armature(context, f"{name} Armature", rig.bones(), collection, parent)
     arm[PART_ROLE] = ARMATURE
     arm.show_in_front = True
-    data.display_type = "OCTAHEDRAL"
-    view_layer = context.view_layer
-    previous = view_layer.objects.active
-    view_layer.objects.active = arm
-    bpy.ops.object.mode_set(mode="EDIT")
-    joints = rig.joints()
-    names = rig.skeleton.names
-    for b, bone_name in enumerate(names):
-        head, tail, frame = joints[bone_name]
-        bone = data.edit_bones.new(bone_name)
-        bone.head, bone.tail = Vector(head), Vector(tail)
-        bone.align_roll(Vector(-frame[:, 1]))
-        parent_index = rig.skeleton.parent[b]
-        if parent_index >= 0:
-            bone.parent = data.edit_bones[names[parent_index]]
-        bone.use_deform = bone_name != "forearm"
-    bpy.ops.object.mode_set(mode="OBJECT")
-    view_layer.objects.active = previous
+    arm.data.display_type = "OCTAHEDRAL"
     _limits(arm, rig)
     return arm
 
@@ -119,18 +100,6 @@ def _bone_meshes(rig, arm, collection, name: str) -> None:
         obj[PART_ROLE] = f"bone.{bone_name}"
 
 
-def _skin_weights(skin_obj, rig) -> None:
-    weights = rig.skin_weights()
-    for b, bone_name in enumerate(rig.skeleton.names):
-        column = weights[:, b]
-        index = np.flatnonzero(column > 1e-4)
-        if not len(index):
-            continue
-        group = skin_obj.vertex_groups.new(name=bone_name)
-        for value in np.unique(np.round(column[index], 4)):
-            group.add(index[np.round(column[index], 4) == value].tolist(), float(value), "REPLACE")
-
-
 def _muscle_display(rig, name, collection, parent):
     rest = rig.rest_pose().positions["muscles"]
     mesh = mesh_from_arrays(f"{name} Muscles", rest, rig.muscle_quads())
@@ -155,9 +124,8 @@ def create_hand_objects(context, rig, name: str = "FH Hand"):
     collection.objects.link(skin)
     arm = _armature(context, rig, name, collection, skin)
     _bone_meshes(rig, arm, collection, name)
-    _skin_weights(skin, rig)
-    modifier = skin.modifiers.new("Armature", "ARMATURE")
-    modifier.object = arm
+    set_vertex_groups(skin, rig.skeleton.names, rig.skin_weights())
+    deform_with(skin, arm)
     _muscle_display(rig, name, collection, skin)
     controls.ensure_controls(skin, rig.control_specs())
     store_rig(skin, rig)

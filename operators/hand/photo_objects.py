@@ -6,12 +6,12 @@ that are not visible; :func:`photo_input` turns what is left into the engine's p
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import bpy
 import numpy as np
 
 from ...faces_hands_addon.core.errors import UserError
+from ...faces_hands_addon.core.foreign_files import check_path
 from ...faces_hands_addon.hand.features import FEATURE_NAMES
 from ...faces_hands_addon.hand.photo import check_photo
 from ...names import HAND_PHOTO, PHOTO_IMAGE, PHOTO_IMAGE_SIZE, PHOTO_POINT, PHOTO_RULER_MM
@@ -34,16 +34,18 @@ def _layout(width: int, height: int) -> dict[str, tuple[float, float]]:
 
 def load_photo(context, filepath: str, ruler_mm: float):
     """Add the photo as an image empty with its markers; returns the image empty."""
-    path = Path(bpy.path.abspath(filepath))
-    if not path.is_file():
-        raise UserError(f"{path} does not exist; choose the photo of the hand")
+    path = check_path(bpy.path.abspath(filepath) if filepath else filepath, "the photo of the hand")
+    known = set(bpy.data.images)
     try:
         image = bpy.data.images.load(str(path), check_existing=True)
     except RuntimeError as error:
         raise UserError(f"cannot read {path.name} as an image ({error})") from None
     width, height = image.size
     if width < 16 or height < 16:
-        raise UserError(f"{path.name} is {width}x{height} pixels; use a real photo of the hand")
+        if image not in known:
+            bpy.data.images.remove(image)          # the scene stays as it was
+        raise UserError(f"{path.name} is {width}x{height} pixels (not a picture Blender reads); use a PNG or "
+                        "JPEG photo of the hand")
     photo = bpy.data.objects.new(f"FH Hand Photo {path.stem}", None)
     photo.empty_display_type = "IMAGE"
     photo.data = image

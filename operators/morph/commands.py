@@ -44,6 +44,7 @@ def parse_setting(text: str) -> tuple[list[str], str, float, str]:
 
 
 class Morph:
+    INPUTS = ("model",)
     NAME = "morph"
     HELP = "create a face from a morphable model (attributes, constraints, caricature) and save .glb/.fbx/.blend"
 
@@ -55,8 +56,9 @@ class Morph:
         parser.add_argument("--seed", type=int, default=None, help="seed of the random start face")
         parser.add_argument("--example", type=int, default=0, help="database example for --face example")
         parser.add_argument("--set", dest="set", action=_Ordered, metavar="[SEGMENT:]NAME=VALUE",
-                            help="set an attribute (repeatable; in order): e.g. mouth:narrow-wide=-0.4; "
-                                 "NAME@shape or NAME@colour for one part")
+                            help="give the face an attribute value (absolute: the face ends with NAME=VALUE; "
+                                 "repeatable, in order): e.g. mouth:narrow-wide=-0.4; NAME@shape or NAME@colour "
+                                 "for one part")
         parser.add_argument("--constrain", dest="constrain", action=_Ordered, metavar="NAME",
                             help="keep this attribute's current value through the following edits")
         parser.add_argument("--caricature", dest="caricature", action=_Ordered, metavar="LEVEL",
@@ -101,7 +103,7 @@ class Morph:
 def _step(face, flag: str, value: str) -> None:
     if flag == "set":
         segments, name, number, part = parse_setting(value)
-        face.set_attribute(name, number, part, segments)
+        face.set_attribute_value(name, number, part, segments)
     elif flag == "constrain":
         face.constrain(value.strip(), "both")
     else:

@@ -15,6 +15,7 @@ import bpy
 import numpy as np
 
 from ...faces_hands_addon.core.errors import UserError
+from ...faces_hands_addon.core.foreign_files import read_text
 from ...faces_hands_addon.morph.editing import EditFace, face_from_state
 from ...faces_hands_addon.morph.segments import hierarchy_order
 from ..adapters.materials import enable_nodes
@@ -28,6 +29,7 @@ MODEL_KEY, STATE_KEY, EXAMPLES_KEY, HISTORY_KEY = MORPH_MODEL, MORPH_STATE, MORP
 ALBEDO = "FH Albedo"
 MASK = "FH Segments"
 DEFAULT = "default"
+MAX_FACE_BYTES = 50_000_000      # a saved face is its edit history: kilobytes
 
 _models: dict[str, object] = {}
 _faces: dict[int, tuple[str, EditFace]] = {}
@@ -219,10 +221,8 @@ def save_face(obj, path: str) -> Path:
 
 
 def load_face(obj, path: str) -> EditFace:
-    file = Path(bpy.path.abspath(path))
-    if not file.is_file():
-        raise UserError(f"{file} does not exist")
-    face = face_from_state(face_of(obj).model, file.read_text(encoding="utf-8"))
+    text = read_text(bpy.path.abspath(path) if path else path, "the saved face", MAX_FACE_BYTES)
+    face = face_from_state(face_of(obj).model, text)
     write_face(obj, face)
     sync_panel(obj, face)
     return face

@@ -12,12 +12,14 @@ rows were written.
 from __future__ import annotations
 
 import csv
+import io
 import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from ...faces_hands_addon.core.errors import UserError
 from ...faces_hands_addon.core.files import FileClaims
+from ...faces_hands_addon.core.foreign_files import read_text
 from ...faces_hands_addon.farm.rows import Once, number_field
 from ...faces_hands_addon.speech.audio import audio_header, written_here
 from ...faces_hands_addon.speech.espeak import RATE_RANGE
@@ -33,6 +35,7 @@ OUT_SUFFIXES = (".glb", ".fbx", ".blend")
 COLUMNS = ("out", "text", "audio", "transcript", "voice", "rate", "sheet", "view", "animation", "live_link",
            "cues", "style", "seed", "emotion")
 ANIMATIONS = ("weights", "frames")
+MAX_JOBS_BYTES = 200_000_000
 
 
 def _optional_path(spec: dict, key: str, suffixes, folders=None) -> Path | None:
@@ -89,7 +92,11 @@ def checked_spec(raw: dict, fps: float, rig_path=None, jobs_path=None, overwrite
         raise UserError("a Live Link CSV needs the weights animation (leave out --animation frames)")
     cues = _optional_path(spec, "cues", (".tsv", ".txt", ".json"), folders)
     rate = number_field("rate", spec.get("rate"), 175, RATE_RANGE)
-    style, seed, emotion = _nonverbal(spec, once or Once())
+    once = once or Once()
+    style, seed, emotion = _nonverbal(spec, once)
+    if spec.get("voice"):                  # a language the recording's transcript is read in, or the TTS voice
+        from ...faces_hands_addon.speech.espeak import check_voice
+        once("voice", spec["voice"], check_voice)
     if audio:
         seconds = audio_header(audio).duration          # exists, readable, within the length limit
     else:
@@ -115,14 +122,12 @@ def checked_spec(raw: dict, fps: float, rig_path=None, jobs_path=None, overwrite
 def read_jobs(path: str) -> list[dict]:
     """The rows of a jobs CSV (file-level problems raise; row problems are the rows' own, ``run_jobs``)."""
     jobs_file = Path(path)
-    if not jobs_file.is_file():
-        raise UserError(f"jobs file {jobs_file} does not exist")
+    text = read_text(jobs_file, "the jobs file", MAX_JOBS_BYTES)     # NUL bytes, size, encoding, path problems
     try:
-        with open(jobs_file, newline="", encoding="utf-8") as handle:
-            reader = csv.DictReader(handle)
-            rows = list(reader)
-            header = reader.fieldnames or []
-    except (UnicodeDecodeError, csv.Error) as error:
+        reader = csv.DictReader(io.StringIO(text, newline=""))
+        rows = list(reader)
+        header = reader.fieldnames or []
+    except csv.Error as error:
         raise UserError(f"{jobs_file} is not a readable UTF-8 CSV file ({error})") from None
     if "out" not in header:
         raise UserError(f"{jobs_file} has no 'out' column (columns: {', '.join(COLUMNS)})")

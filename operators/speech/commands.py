@@ -7,7 +7,7 @@ from ...faces_hands_addon.core.errors import UserError
 from ..adapters.outputs import written
 from ..face.sheet import VIEWS
 from .batch import checked_spec, read_jobs, run_jobs
-from .services import run_line, shared_default_rig
+from .services import MASK, rig_file, run_line, shared_default_rig
 
 
 def _common_arguments(parser) -> None:
@@ -41,16 +41,18 @@ def _common_arguments(parser) -> None:
 
 def _run(args, spec: dict, progress) -> int:
     if args.jobs:
-        return run_jobs(read_jobs(args.jobs), args.rig, args.fps, progress, run_line, jobs_path=args.jobs,
-                        fail_fast=args.fail_fast, overwrite=args.overwrite,
-                        prepare_rig=lambda folder: shared_default_rig(folder, args.fps, progress))
-    spec = checked_spec(spec, args.fps, args.rig, overwrite=args.overwrite)
+        return run_jobs(read_jobs(args.jobs), rig_file(args.rig), args.fps, progress, run_line,
+                        jobs_path=args.jobs, fail_fast=args.fail_fast, overwrite=args.overwrite,
+                        prepare_rig=lambda folder: shared_default_rig(folder, args.fps, progress, args.rig))
+    spec = checked_spec(spec, args.fps, rig_file(args.rig), overwrite=args.overwrite)
     print(written(run_line(spec, args.rig, args.fps, progress)))
     return 0
 
 
 class Speak:
     NAME = "speak"
+    INPUTS = ("rig", "jobs")
+    INPUT_WORDS = {"rig": (MASK,)}
     HELP = "speak text with espeak-ng on a face rig; writes .glb/.fbx/.blend plus the .wav beside it"
 
     @staticmethod
@@ -73,6 +75,8 @@ class Speak:
 
 class LipSync:
     NAME = "lipsync"
+    INPUTS = ("audio", "rig", "jobs")
+    INPUT_WORDS = {"rig": (MASK,)}
     HELP = "lip-sync a face rig to recorded speech (WAV/FLAC/OGG) with its transcript"
 
     @staticmethod

@@ -22,10 +22,15 @@ from ..face import services as face, sheet
 from ..face.objects import EXPORT_ROLES
 from . import apply, head as head_motion
 
-__all__ = ["run_line", "shared_default_rig", "phoneme_cells"]
+__all__ = ["run_line", "shared_default_rig", "phoneme_cells", "rig_file", "MASK"]
 
 
 MASK = "mask"         # ``--rig mask``: the face-only default head instead of the default character
+
+
+def rig_file(rig: str | None) -> str | None:
+    """The file ``--rig`` names, or None for the built-in rigs (no ``--rig``, or ``mask``)."""
+    return None if rig in (None, MASK) else rig
 
 
 def _prepare_rig(rig_path: str | None, fps: float, progress, engine_rig=None):

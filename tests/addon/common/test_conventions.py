@@ -9,6 +9,7 @@ from types import SimpleNamespace
 import pytest
 
 from conftest import addon_module
+from ui_layout import CheckedLayout
 
 
 def _operators(bpy):
@@ -55,41 +56,24 @@ def test_operators_that_change_data_can_be_undone(bpy_clean):
     assert not lacking, lacking
 
 
-class _Recorder:
-    def __init__(self):
-        self.operators, self.menus = [], []
-
-    def operator(self, idname, **kwargs):
-        self.operators.append(idname)
-        return SimpleNamespace()
-
-    def menu(self, idname, **kwargs):
-        self.menus.append(idname)
-
-    def separator(self, **kwargs):
-        pass
-
-    def label(self, **kwargs):
-        pass
-
-
 def test_menus_list_existing_operators_and_are_hooked_into_blender(bpy_clean):
     bpy = bpy_clean
     menus = addon_module("panels.menus")
     for menu_name, draw in menus.MENUS:
         assert draw in getattr(bpy.types, menu_name).draw._draw_funcs, menu_name
-    recorder = _Recorder()
-    fake = SimpleNamespace(layout=recorder)
+    layout = CheckedLayout(bpy)                   # holds every call to Blender's own UILayout signatures
+    fake = SimpleNamespace(layout=layout)
     for cls in (menus.FH_MT_add, menus.FH_MT_object):
         cls.draw(fake, bpy.context)
     menus.draw_export(fake, bpy.context)
-    assert "faces_hands.export_face" in recorder.operators and "faces_hands.build_hand_rig" in recorder.operators
-    for idname in recorder.operators:
+    operators = [args[0] if args else kwargs["operator"] for name, args, kwargs in layout.log if name == "operator"]
+    assert "faces_hands.export_face" in operators and "faces_hands.build_hand_rig" in operators
+    for idname in operators:
         module, name = idname.split(".")
         assert hasattr(getattr(bpy.ops, module), name) and getattr(getattr(bpy.ops, module), name).get_rna_type(), idname
     every = {cls.bl_idname for cls, _ in _operators(bpy)}
     internal = {cls.bl_idname for cls, _ in _operators(bpy) if "INTERNAL" in getattr(cls, "bl_options", set())}
-    assert len(set(recorder.operators)) >= 0.6 * len(every - internal)
+    assert len(set(operators)) >= 0.6 * len(every - internal)
 
 
 def test_preferences_page_and_preset_folder(bpy_clean, tmp_path):

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from conftest import addon_module, run_fh
+from export_checks import mesh_names, placement_errors, reimport, world_vertices
 
 
 def _engine():
@@ -101,7 +102,7 @@ def test_fit_bad_input_is_a_clear_error_and_changes_nothing(bpy_clean, case):
         assert preview.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
-def test_fit_rig_on_a_head_lying_face_up(bpy_clean):
+def test_fit_rig_on_a_head_lying_face_up(bpy_clean, tmp_path):
     """A head turned 90 degrees about X (face towards +Z, as after a Y-up import) is found and fitted; the
     rig's landmarks are the upright head's, turned with it."""
     bpy = bpy_clean
@@ -114,6 +115,30 @@ def test_fit_rig_on_a_head_lying_face_up(bpy_clean):
     truth = head.truth @ world[:3, :3].T + world[:3, 3]
     error = np.linalg.norm(np.asarray(rig.landmarks) - truth, axis=1) / head.face_width
     assert np.median(error) < 0.012 and error.max() < 0.06
+    _exported_in_place(bpy, obj, tmp_path)
+
+
+def _exported_in_place(bpy, obj, tmp_path):
+    """The turned fitted head as GLB and FBX, read back by Blender: the eyes inside the head (between its
+    skin's extremes on every axis, behind the face) and every vertex of every part within 0.1 mm of the
+    scene's (the parts were 10 m off before: issue 33)."""
+    services = addon_module("operators.face.services")
+    objects = addon_module("operators.adapters.export").export_objects(obj, addon_module("operators.face.objects").EXPORT_ROLES)
+    wanted = world_vertices(bpy, objects, [None])
+    names = mesh_names(objects)
+    paths = [services.export(bpy.context, obj, str(tmp_path / f"turned.{fmt}")) for fmt in ("glb", "fbx")]
+    skin_name = obj.name
+    eyes = [part.name for role, part in addon_module("operators.adapters.rig_store").parts(obj).items()
+            if role in ("eye_L", "eye_R")]
+    assert len(eyes) == 2
+    for path in paths:
+        got = world_vertices(bpy, reimport(bpy, path, 24), [None], names)
+        skin = got[skin_name][0]
+        for eye in eyes:
+            centre = got[eye][0].mean(axis=0)
+            assert np.all(centre > skin.min(axis=0)) and np.all(centre < skin.max(axis=0)), (path.suffix, eye)
+        errors = placement_errors(wanted, got)
+        assert set(errors) == set(wanted) and max(errors.values()) < 1e-4, (path.suffix, errors)
 
 
 def test_huge_mesh_is_refused(bpy_clean):

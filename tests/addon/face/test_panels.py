@@ -1,22 +1,10 @@
-"""The N-panel draws (with a recording stand-in layout: the bpy module has no UI) for an empty scene,
-a face rig, and with the control filter."""
+"""The N-panel draws (with a stand-in layout that holds every call to Blender's real UILayout signatures:
+the bpy module has no UI) for an empty scene, a face rig, and with the control filter."""
 from __future__ import annotations
-
-from types import SimpleNamespace
 
 import pytest
 
-
-class Layout:
-    def __init__(self, log):
-        self.log = log
-
-    def __getattr__(self, name):
-        def call(*args, **kwargs):
-            self.log.append((name, args, kwargs))
-            return Layout(self.log)
-        return call
-
+from ui_layout import CheckedLayout, panel_host
 
 def _draw_all(bpy):
     drawn = {}
@@ -27,21 +15,15 @@ def _draw_all(bpy):
         if hasattr(cls, "poll") and not cls.poll(context):
             drawn[name] = None
             continue
-        panel = SimpleNamespace(layout=Layout(log))
-        for attribute in ("rig_kind", "group_order", "nothing"):      # a RigControlsPanel's settings
-            if hasattr(cls, attribute):
-                setattr(panel, attribute, getattr(cls, attribute))
-        cls.draw(panel, context)
+        cls.draw(panel_host(cls, CheckedLayout(bpy, log)), context)
         drawn[name] = log
     return drawn
-
 
 @pytest.mark.smoke
 def test_panels_draw_without_a_rig(bpy_clean):
     drawn = _draw_all(bpy_clean)
     assert drawn["FH_PT_face_controls"] is None
     assert any(call[0] == "operator" and call[1][0] == "faces_hands.build_face_rig" for call in drawn["FH_PT_face"])
-
 
 def test_panels_draw_rig_controls_grouped_and_filtered(bpy_clean):
     bpy = bpy_clean

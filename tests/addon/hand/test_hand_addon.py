@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from conftest import addon_module
+from export_checks import mesh_names, placement_errors, reimport, world_vertices
 
 WEBXR_NAMES = {"wrist", "thumb-metacarpal", "thumb-phalanx-proximal", "thumb-phalanx-distal"} | {
     f"{f}-finger-{p}" for f in ("index", "middle", "ring", "pinky")
@@ -148,8 +149,24 @@ def test_bake_and_export_glb_and_fbx(bpy_clean, tmp_path):
     assert {c["target"]["path"] for c in channels} >= {"rotation", "weights"}
     rotated = {doc["nodes"][c["target"]["node"]]["name"] for c in channels if c["target"]["path"] == "rotation"}
     assert "index-finger-phalanx-proximal" in rotated
+    influences = np.array([sum(g.weight > 0 for g in v.groups) for v in obj.data.vertices])
+    assert influences.max() <= 4                  # what glTF's JOINTS_0 holds and three.js plays
+    obj.rotation_euler = (0.4, -0.2, 1.3)         # a hand the artist turned and moved
+    obj.location = (0.3, -0.5, 1.1)
+    frames = (1, 40, 70, 103)
+    objects = addon_module("operators.adapters.export").export_objects(obj, addon_module("operators.hand.objects").EXPORT_ROLES)
+    wanted, names = world_vertices(bpy, objects, frames), mesh_names(objects)
     fbx = services.export(bpy.context, obj, str(tmp_path / "hand.fbx"))
-    assert fbx.stat().st_size > 100_000
+    glb = services.export(bpy.context, obj, str(tmp_path / "hand.glb"))
+    for path in (fbx, glb):
+        imported = reimport(bpy, path, 30)
+        armature = next(o for o in imported if o.type == "ARMATURE")
+        skin = next(o for o in imported if o.type == "MESH" and o.data.shape_keys is not None)
+        assert WEBXR_NAMES <= {b.name for b in armature.data.bones}, path.suffix
+        assert WEBXR_NAMES <= {g.name for g in skin.vertex_groups}, path.suffix
+        assert armature.animation_data is not None and armature.animation_data.action is not None, path.suffix
+        errors = placement_errors(wanted, world_vertices(bpy, imported, [f - 1 for f in frames], names))
+        assert max(errors.values()) <= 1e-4, (path.suffix, errors)
 
 
 def test_retarget_onto_the_webxr_generic_hand(bpy_clean, installed):

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from conftest import addon_module
+from ui_layout import CheckedLayout
 
 
 def _rig(bpy):
@@ -64,25 +65,12 @@ def test_set_emotion_without_a_face_rig_is_refused(bpy_clean):
     assert set(cube.keys()) == keys
 
 
-class _Layout:
-    """A recording stand-in layout (the bpy module has no UI)."""
-
-    def __init__(self, log):
-        self.log = log
-
-    def __getattr__(self, name):
-        def call(*args, **kwargs):
-            self.log.append((name, args, kwargs))
-            return _Layout(self.log)
-        return call
-
-
 def test_emotion_panel_draws_the_disk_the_expression_and_the_operators(bpy_clean):
     bpy = bpy_clean
     settings = bpy.context.scene.faces_hands
     settings.emotion_word = "joy"
     log = []
-    bpy.types.FH_PT_emotion.draw(type("Panel", (), {"layout": _Layout(log)})(), bpy.context)
+    bpy.types.FH_PT_emotion.draw(type("Panel", (), {"layout": CheckedLayout(bpy, log)})(), bpy.context)
     calls = [c[0] for c in log]
     assert "template_icon" in calls
     labels = [c[2].get("text", "") for c in log if c[0] == "label"]

@@ -309,8 +309,10 @@ def test_cli_speak_glb_shows_every_bilabial_closed_on_time(installed, tmp_path):
     from faces_hands_addon.speech.closures import lip_closures
     text = "Papa made a map, and Bob bought a bumpy boat."
     out = tmp_path / "papa.glb"
-    result = run_fh(installed, "speak", "--rig", "mask", "--text", text, "--out", out)
+    result = run_fh(installed, "speak", "--rig", "mask", "--text", text, "--out", out, "--live-link",
+                    tmp_path / "papa.csv", "--cues", tmp_path / "papa.tsv")
     assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
+    _every_file_of_the_take_reads_back(installed, tmp_path, out)
     times, weights = max((v for k, v in _glb_weight_animation(out).items() if isinstance(k, str)),
                          key=lambda tw: len(tw[1]))
     closures = lip_closures(synthesize(text).phones)
@@ -324,3 +326,37 @@ def test_cli_speak_glb_shows_every_bilabial_closed_on_time(installed, tmp_path):
         for k in keys:
             assert weights["viseme_PP"][k] > 0.999, (closure, times[k])
             assert max(weights[n][k] for n in others + correctives) < 1e-6, (closure, times[k])
+
+
+def _every_file_of_the_take_reads_back(installed, tmp_path, glb):
+    """Every format the take was written in, read back by ``retarget`` (issue 33 item 5): the GLB's and the
+    Live Link CSV's weights at every frame of the take, the mouth cues' shapes at their times."""
+    from types import SimpleNamespace
+
+    import bpy
+    from conftest import addon_module, run_fh
+    from export_checks import played_weights, save_avatar
+    from faces_hands_addon.anim.retarget import ARKIT_NAMES
+    from faces_hands_addon.speech.cues import SHAPE_VISEME, read_cues
+    avatar = tmp_path / "avatar.blend"
+    save_avatar(bpy, avatar, list(ARKIT_NAMES) + sorted(set(SHAPE_VISEME.values()) | {"viseme_PP", "viseme_aa"}))
+    times, weights = max((v for k, v in _glb_weight_animation(glb).items() if isinstance(k, str)),
+                         key=lambda tw: len(tw[1]))
+    cues = tmp_path / "played_cues.blend"                     # in this process: the same service, faster
+    addon_module("operators.face.services").retarget(SimpleNamespace(
+        source=str(tmp_path / "papa.tsv"), character=str(avatar), fps=None, csv_fps=None, rig=None, object=None), cues)
+    _, played = played_weights(bpy, cues)
+    for cue in read_cues(tmp_path / "papa.tsv")[1:-1]:
+        middle = int(round((cue.start + cue.end) / 2 * 30))
+        assert played[SHAPE_VISEME[cue.shape]][middle] == 1.0, (cue, middle)
+    for source in ("papa.glb", "papa.csv"):
+        out = tmp_path / f"played_{source.replace('.', '_')}.blend"
+        result = run_fh(installed, "retarget", "--source", tmp_path / source, "--character", avatar, "--out", out)
+        assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
+        frames, played = played_weights(bpy, out)
+        assert f"Transferred {len(times)} frames at 30 fps" in result.stdout, result.stdout
+        assert len(frames) == len(times)                        # 30 fps: not read as 60 (149 -> 135 on main)
+        names = [n for n in played if n in weights] if source == "papa.glb" else [n for n in played if n[0] != "v"]
+        assert len(names) >= 50
+        for name in names:
+            assert np.abs(played[name] - np.clip(weights[name], 0, 1)).max() < 1e-5, (source, name)   # float32

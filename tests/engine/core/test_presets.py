@@ -17,6 +17,7 @@ from faces_hands_addon.face.rig import build_default_rig
 from faces_hands_addon.hand import presets as hand_presets  # noqa: F401  (registers the hand formats)
 from faces_hands_addon.morph import population as morph_population  # noqa: F401  (registers the morph formats)
 from faces_hands_addon.speech import missing_words  # noqa: F401  (registers the transcript check's format)
+from faces_hands_addon.performance import priority  # noqa: F401  (registers the speech priority's format)
 from faces_hands_addon.speech.articulation import class_controls, load_articulation
 
 FORMATS = {"expressions": "faces_hands.expressions", "face/landmarks": "faces_hands.face_landmarks",
@@ -29,11 +30,14 @@ FORMATS = {"expressions": "faces_hands.expressions", "face/landmarks": "faces_ha
            "emotion/emotion_words": "faces_hands.emotion_words",
            "emotion/basic_expressions": "faces_hands.emotion_expressions",
            "behavior/styles": "faces_hands.behavior_styles", "behavior/loudness": "faces_hands.loudness",
-           "character/bones": "faces_hands.bone_map", "performance/speech_priority": "faces_hands.speech_priority"}
+           "performance/speech_priority": "faces_hands.speech_priority",
+           "character/bones": "faces_hands.bone_map"}
 
 
 def _format_of(relative: str) -> str:
-    return next(fmt for prefix, fmt in FORMATS.items() if relative.startswith(prefix))
+    fmt = next((fmt for prefix, fmt in FORMATS.items() if relative.startswith(prefix)), None)
+    assert fmt is not None, f"{relative}: a shipped preset this test does not know; add its folder to FORMATS"
+    return fmt
 
 
 @pytest.fixture

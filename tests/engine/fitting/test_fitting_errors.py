@@ -61,3 +61,30 @@ def test_failed_fit_reports_the_limit(mask):
     crumpled = mask.vertices + rng.normal(0.0, 0.08 * mask.face_width, mask.vertices.shape)
     with pytest.raises(UserError, match=r"could not fit the face template .*limit 4 %"):
         locate_landmarks(crumpled, mask.faces)
+
+
+@pytest.mark.parametrize("case", ["collapsed", "flat", "one_triangle_skin"])
+def test_landmarks_placed_by_hand_on_no_face_are_refused(mask, case):
+    """Landmarks dragged onto one point or flattened onto a plane, or a skin that is a single triangle under
+    good landmarks: a clear error, not 'Singular matrix' from deep inside the fit (issue 33)."""
+    from faces_hands_addon.face.fitted import build_fitted_rig
+    landmarks = mask.truth.copy()
+    vertices, faces = mask.vertices, mask.faces
+    if case == "collapsed":
+        landmarks[:] = landmarks[0]
+    elif case == "flat":
+        landmarks[:, 1] = 0.0
+    else:
+        vertices, faces = TRIANGLE * 0.2, np.array([[0, 1, 2]])
+    with pytest.raises(UserError, match="point, a line or a plane"):
+        build_fitted_rig(vertices, faces, landmarks)
+
+
+def test_a_singular_registration_is_the_meshs_problem_said_as_such():
+    """SuperLU's 'Factor is exactly singular' (the review's one-triangle mesh) reaches the artist as what to
+    do about the mesh."""
+    from scipy import sparse
+    from faces_hands_addon.fitting import nicp
+    with pytest.raises(UserError, match="cannot be registered onto this mesh"):
+        nicp._lu_solve(sparse.csr_matrix((3, 3)), np.ones(3))
+    assert np.allclose(nicp._lu_solve(sparse.identity(3, format="csr") * 2.0, np.ones(3)), 0.5)

@@ -4,7 +4,9 @@ it), a Fig. 5.3 correlation (a wider mouth widens the nose), segments of Table 5
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
+from faces_hands_addon.core.errors import UserError
 from faces_hands_addon.morph import editing, population
 
 MASC, BROWS = "masculine-feminine", "eyebrows-eyes distance"
@@ -59,3 +61,25 @@ def test_a_broken_user_preset_is_refused_by_name(tmp_path):
             population.sample_population(count=10)
     finally:
         presets.set_user_folder(before)
+
+
+def test_setting_an_attribute_value_is_absolute():
+    """``--set A=v`` leaves the face with ``f_A = v`` whatever it started from (a random face, a segment,
+    another attribute held by a constraint): on main it added v to the random face's own value."""
+    model = population.default_model()
+    face = editing.EditFace(model)
+    face.create("random", seed=11)
+    assert abs(face.value(MASC)) > 0.1                       # the random face has a value of its own
+    face.set_attribute_value(MASC, 0.0)
+    assert abs(face.value(MASC)) < 1e-9 and abs(face.value(MASC, "colour")) < 1e-9
+    face.set_attribute_value(MASC, 0.7, "shape", ["mouth"])
+    assert abs(face.value(MASC) - 0.7) < 1e-9
+    face.constrain(BROWS, "shape")
+    brows = face.value(BROWS)
+    face.set_attribute_value(MASC, -0.4, "shape")
+    assert abs(face.value(MASC) + 0.4) < 1e-9 and abs(face.value(BROWS) - brows) < 1e-9
+    replayed = editing.face_from_state(model, face.state())
+    assert np.allclose(replayed.alpha, face.alpha)
+    face.constrain(MASC, "shape")
+    with pytest.raises(UserError, match="constraints hold"):
+        face.set_attribute_value(MASC, 1.0, "shape")
