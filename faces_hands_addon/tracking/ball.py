@@ -103,7 +103,7 @@ def find_silhouettes(image: np.ndarray, min_area: int) -> BallDetections:
     if len(areas) >= 3:
         typical = float(np.median(areas))
         for s in out.silhouettes:
-            s.merged = s.area > 1.45 * typical and s.axes[0] > 1.3 * s.axes[1]
+            s.merged = s.area > 1.45 * typical and s.axes[0] > 1.7 * s.axes[1]
     return out
 
 
@@ -146,7 +146,7 @@ def _polish(points: np.ndarray, radius: float, centre: np.ndarray, band: float =
             return centre
         u = (points[use] - c) / d[use][:, None]
         step, *_ = np.linalg.lstsq(-u, -(d[use] - radius), rcond=None)
-        c = c - step
+        c = c + step
         if np.linalg.norm(step) < 1e-4:
             break
     return c

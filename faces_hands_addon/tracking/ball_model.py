@@ -47,7 +47,7 @@ class BallModel:
 
 def ball_model(document: dict | None = None) -> BallModel:
     """The ball of ``presets/tracking/ball.json`` (or of ``document``), checked."""
-    doc = document or read_preset("tracking/ball.json", BALL_FORMAT)
+    doc = document or read_preset("tracking/ball.json", BALL_FORMAT.name)[0]
     names = tuple(sorted(doc["types"]))
     for name in names:
         if doc["types"][name]["shape"] not in SHAPES or len(doc["types"][name]["rgb"]) != 3:

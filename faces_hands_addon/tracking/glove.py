@@ -48,17 +48,21 @@ class GloveLayout:
 
 
 def _dorsal_skin(point: np.ndarray, skin: np.ndarray, reach: float = 0.0035) -> np.ndarray:
+    """The most dorsal skin vertex over ``point`` (within ``reach`` of the dorsal line through it, widened
+    where the skin is coarse)."""
     lateral = skin - point
     off_axis = np.linalg.norm(lateral - np.outer(lateral @ DORSAL, DORSAL), axis=1)
-    near = skin[off_axis < reach]
-    if len(near) == 0:
-        return point
-    return near[int(np.argmax(near @ DORSAL))]
+    above = lateral @ DORSAL > 0.0
+    for widen in (1.0, 2.0, 4.0):
+        near = skin[(off_axis < reach * widen) & above]
+        if len(near):
+            return near[int(np.argmax(near @ DORSAL))]
+    return point
 
 
 def glove_layout(skeleton, rest_skin: np.ndarray, document: dict | None = None) -> GloveLayout:
     """The glove of ``presets/tracking/glove.json`` on a hand (its skeleton and rest skin, asset frame)."""
-    doc = document or read_preset("tracking/glove.json", GLOVE_FORMAT)
+    doc = document or read_preset("tracking/glove.json", GLOVE_FORMAT.name)[0]
     names, bones, rest, colours = [], [], [], []
     for m in doc["markers"]:
         if m["bone"] not in skeleton.index:
