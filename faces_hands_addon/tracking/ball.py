@@ -103,7 +103,7 @@ def find_silhouettes(image: np.ndarray, min_area: int) -> BallDetections:
     if len(areas) >= 3:
         typical = float(np.median(areas))
         for s in out.silhouettes:
-            s.merged = s.area > 1.45 * typical and s.axes[0] > 1.7 * s.axes[1]
+            s.merged = s.area > 1.45 * typical and s.axes[0] > 1.5 * s.axes[1]
     return out
 
 
@@ -197,9 +197,14 @@ def split_merged(image_value: np.ndarray, silhouette: Silhouette, radius: float,
     image ``radius`` in the region, each a silhouette of its own."""
     reach = 1.0 + silhouette.axes[0] / radius
     edges = radial_edges(image_value, silhouette.centre, radius, level, count=240, reach=reach)
-    centres = hough_centre(edges, radius, silhouette.centre, silhouette.axes[0] * 1.2, peaks=2)
-    return [Silhouette(_polish(edges, radius, c), np.array([radius, radius]), silhouette.boundary,
-                       silhouette.area // 2, merged=True, region=silhouette.region) for c in centres]
+    centres = [_polish(edges, radius, c) for c in
+               hough_centre(edges, radius, silhouette.centre, silhouette.axes[0] * 1.2, peaks=2)]
+    support = [np.mean(np.abs(np.linalg.norm(edges - c, axis=1) - radius) < 1.0) for c in centres]
+    if len(centres) < 2 or min(support) < 0.25:              # not two balls (a side-lit half-moon, say)
+        silhouette.merged = False
+        return [silhouette]
+    return [Silhouette(c, np.array([radius, radius]), silhouette.boundary, silhouette.area // 2, merged=True,
+                       region=silhouette.region) for c in centres]
 
 
 def predicted_radius(camera: Camera, point: np.ndarray, ball_radius: float) -> float:

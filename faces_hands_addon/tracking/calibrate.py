@@ -101,7 +101,7 @@ def calibrate_intrinsics(views: list[np.ndarray], inner: tuple[int, int], square
     return Intrinsics(camera, error, len(views))
 
 
-def solve_pose(camera: Camera, object_points: np.ndarray, pixels: np.ndarray) -> tuple[Camera, float]:
+def solve_pose(camera: Camera, object_points: np.ndarray, pixels: np.ndarray, refine: bool = True) -> tuple[Camera, float]:
     """``camera`` (intrinsics known) placed in the world from >= 6 known non-coplanar ``object_points``
     (N, 3) seen at ``pixels`` (N, 2): DLT on undistorted normalised coordinates, then Levenberg-Marquardt.
     Returns the posed camera and its mean reprojection error (pixels)."""
@@ -126,6 +126,9 @@ def solve_pose(camera: Camera, object_points: np.ndarray, pixels: np.ndarray) ->
         R, t = np.diag([-1.0, -1.0, 1.0]) @ R, np.diag([-1.0, -1.0, 1.0]) @ t
     if abs(np.linalg.det(R) - 1.0) > 1e-6:
         raise UserError(f"{camera.name}: the calibration object's points are coplanar or misidentified")
+    if not refine:
+        posed = camera.with_pose(R, t)
+        return posed, float(np.mean(np.linalg.norm(posed.project(object_points) - pixels, axis=1)))
 
     def residual(p):
         return (camera.with_pose(rotation_from_vector(p[:3]), p[3:]).project(object_points) - pixels).ravel()

@@ -9,6 +9,8 @@ cameras that photographed each), the stereo pairs, the strobes and the pitcher's
 """
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 
 from ..core.errors import UserError
@@ -18,7 +20,7 @@ from .checkerboard import find_corners
 from .images import colour_masks, hsv, regions, undistort_image
 from .setup import Calibration
 
-__all__ = ["PHOTOS_FORMAT", "object_centres", "calibrate_setup", "check_photo_sizes"]
+__all__ = ["PHOTOS_FORMAT", "object_centres", "identify_spheres", "calibrate_setup", "check_photo_sizes"]
 
 PHOTOS_FORMAT = register_format(PresetFormat(
     "faces_hands.pitch_calibration_photos", 1, required=("board", "objects", "pairs", "strobes"),
@@ -26,19 +28,52 @@ PHOTOS_FORMAT = register_format(PresetFormat(
            "strobes": {str: ANY}, "plate_direction": [NUMBER], "hand": ANY}))
 
 
-def object_centres(image: np.ndarray, colours: list[str]) -> dict[str, np.ndarray]:
-    """The centre of the largest region of each colour (``white``: bright and unsaturated) in a photo of the
-    calibration object."""
-    masks = colour_masks(image, [c for c in colours if c != "white"])
-    if "white" in colours:
+def object_centres(image: np.ndarray, colours: list[str]) -> dict[str, list[np.ndarray]]:
+    """Colour -> centres of the regions of that colour (``white``: bright and unsaturated), largest first, as
+    many as the object has spheres of the colour, in a photo of the calibration object."""
+    wanted = {c: colours.count(c) for c in colours}
+    masks = colour_masks(image, [c for c in wanted if c != "white"])
+    if "white" in wanted:
         _, sat, val = hsv(image)
         masks["white"] = (sat < 0.2) & (val > 0.6)
     out = {}
     for colour, mask in masks.items():
-        found = regions(mask, 6)
+        found = sorted(regions(mask, 6), key=lambda r: -r.area)[:wanted[colour]]
         if found:
-            out[colour] = max(found, key=lambda r: r.area).centroid
+            out[colour] = [r.centroid for r in found]
     return out
+
+
+def identify_spheres(camera, points: np.ndarray, colours: list[str], found: dict) -> tuple[np.ndarray, np.ndarray]:
+    """Which sphere each found region is: spheres of one colour are told apart by trying every assignment and
+    keeping the one whose camera pose reprojects best (each colour appears at most twice, so at most 2^8
+    tries); then a sphere whose reprojection is off by more than three times the median (hidden behind
+    another, partly) is dropped and the pose solved again. Returns (world points, pixels)."""
+    options = []
+    for colour in dict.fromkeys(colours):
+        indices = [i for i, c in enumerate(colours) if c == colour]
+        seen = found.get(colour, [])
+        choices = [list(zip(perm, seen)) for perm in itertools.permutations(indices, len(seen))] if seen else [[]]
+        options.append(choices)
+    best = None
+    for combination in itertools.product(*options):
+        pairs = [pair for part in combination for pair in part]
+        if len(pairs) < 6:
+            continue
+        world = points[[i for i, _ in pairs]]
+        pixels = np.array([p for _, p in pairs])
+        try:
+            posed, error = solve_pose(camera, world, pixels, refine=False)
+        except UserError:
+            continue
+        if best is None or error < best[0]:
+            best = (error, world, pixels, posed)
+    if best is None:
+        raise UserError(f"{camera.name}: fewer than 6 spheres of the calibration object were found")
+    _, world, pixels, posed = best
+    residual = np.linalg.norm(posed.project(world) - pixels, axis=1)
+    keep = residual <= max(3.0 * float(np.median(residual)), 0.5)
+    return world[keep], pixels[keep]
 
 
 def check_photo_sizes(images: dict[str, np.ndarray], expected: dict[str, tuple[int, int]] | None = None) -> None:
@@ -72,15 +107,15 @@ def calibrate_setup(doc: dict, photos: dict[str, dict], progress=None) -> tuple[
         placement = placement[0]
         flat = undistort_image(shots["object"], intrinsics.camera)
         found = object_centres(flat, placement["colours"])
-        known = [c for c in placement["colours"] if c in found]
-        points = np.array([placement["points"][placement["colours"].index(c)] for c in known])
         undistorted = intrinsics.camera.undistorted()
-        posed, error = solve_pose(undistorted, points, np.array([found[c] for c in known]))
+        world, pixels = identify_spheres(undistorted, np.asarray(placement["points"], float), placement["colours"],
+                                         found)
+        posed, error = solve_pose(undistorted, world, pixels)
         camera = intrinsics.camera.with_pose(posed.R, posed.t)
         cameras[name] = camera
         errors[name] = error
         lines.append(f"{name}: f = {camera.fx:.1f} px, board error {intrinsics.error_px:.2f} px, object error "
-                     f"{error:.2f} px ({len(known)} spheres)")
+                     f"{error:.2f} px ({len(world)} spheres)")
     strobes = {k: float(v["hz"] if isinstance(v, dict) else v) for k, v in doc["strobes"].items()}
     pairs = {k: v for k, v in doc["pairs"].items() if all(n in cameras for n in v)}
     calibration = Calibration(cameras, pairs, strobes, np.asarray(doc.get("plate_direction", [0, 1, 0]), float),

@@ -87,11 +87,32 @@ def merge_pairs(per_pair: list[Markers3D], radius: float = 0.006) -> Markers3D:
     return Markers3D(np.array(out), np.array(out_c, np.int64), seen)
 
 
-def cluster_hands(markers: Markers3D, link: float) -> list[np.ndarray]:
-    """Indices of the markers of each hand exposure (single linkage, split at ``link`` metres), largest first
-    in time order is not known here; clusters of fewer than 3 markers are dropped."""
+def cluster_hands(markers: Markers3D, link: float, span: float | None = None) -> list[np.ndarray]:
+    """Indices of the markers of each hand exposure: single-linkage clusters split at ``link`` metres, then
+    clusters joined, nearest first, while the union still fits in one hand (no two markers farther apart than
+    ``span``: a finger whose markers are hidden can leave a gap wider than ``link``). Clusters of fewer than 3
+    markers are dropped."""
     if len(markers.points) < 3:
         return []
     labels = fcluster(linkage(markers.points, method="single"), t=link, criterion="distance")
     groups = [np.flatnonzero(labels == k) for k in np.unique(labels)]
+    if span is not None:
+        groups = _join(markers.points, groups, span)
     return [g for g in groups if len(g) >= 3]
+
+
+def _join(points: np.ndarray, groups: list[np.ndarray], span: float) -> list[np.ndarray]:
+    while len(groups) > 1:
+        best = None
+        for a in range(len(groups)):
+            for b in range(a + 1, len(groups)):
+                gap = float(np.min(np.linalg.norm(points[groups[a]][:, None] - points[groups[b]][None], axis=2)))
+                union = points[np.concatenate([groups[a], groups[b]])]
+                width = float(np.max(np.linalg.norm(union[:, None] - union[None], axis=2)))
+                if width <= span and (best is None or gap < best[0]):
+                    best = (gap, a, b)
+        if best is None:
+            return groups
+        _, a, b = best
+        groups = [g for k, g in enumerate(groups) if k not in (a, b)] + [np.concatenate([groups[a], groups[b]])]
+    return groups

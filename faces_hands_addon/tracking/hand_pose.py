@@ -100,28 +100,50 @@ def _fit_step(skeleton, layout: GloveLayout, root, angles, dofs: list[int], mark
     return couple_rotations(skeleton, out), float(np.linalg.norm(fit.fun))
 
 
-def _chains(skeleton, layout: GloveLayout, root, prior, points, colours, used: set):
+def _best_marker(skeleton, layout, root, angles, pending, marker, points, colours, used):
+    best = None
+    for k in np.flatnonzero(colours == layout.colours[marker]):
+        if k in used:
+            continue
+        trial, error = _fit_step(skeleton, layout, root, angles, pending, marker, points[k])
+        if error < REACH and (best is None or error < best[2]):
+            best = (int(k), trial, error)
+    return best
+
+
+def _chains(skeleton, layout, root, prior, points, colours, used: set):
+    """Two passes over the fingers: first each joint from its own next marker only, stopping a finger at its
+    first missing marker; then, with the markers nobody claimed, the stopped fingers go on, solving the joint
+    before a missing marker together with the next (a finger bending across cannot steal its neighbour's
+    markers that way)."""
     angles = prior.copy()
     labels, solved, missing, residuals = {}, [], [], []     # solved: DOFs fixed by their own next marker
-    for chain in CHAINS.values():
+    stopped = {}
+    for finger, chain in CHAINS.items():
+        for step, (bone, name) in enumerate(chain):
+            marker = layout.names.index(name)
+            best = _best_marker(skeleton, layout, root, angles, _free_dofs(skeleton, bone), marker, points, colours,
+                                used)
+            if best is None:
+                stopped[finger] = step
+                break
+            k, angles, error = best
+            used.add(k)
+            labels[name] = k
+            solved += [skeleton.dof_names()[d] for d in _free_dofs(skeleton, bone)]
+            residuals.append(error)
+    for finger, first in stopped.items():
         pending: list[int] = []
-        for bone, name in chain:
+        for bone, name in CHAINS[finger][first:]:
             marker = layout.names.index(name)
             pending += _free_dofs(skeleton, bone)
-            colour = layout.colours[marker]
-            best = None
-            for k in np.flatnonzero(colours == colour):
-                if k in used:
-                    continue
-                trial, error = _fit_step(skeleton, layout, root, angles, pending, marker, points[k])
-                if error < REACH and (best is None or error < best[2]):
-                    best = (k, trial, error)
+            best = _best_marker(skeleton, layout, root, angles, pending, marker, points, colours, used)
             if best is None:
                 missing.append(name)
                 continue
             k, angles, error = best
-            used.add(int(k))
-            labels[name] = int(k)
+            used.add(k)
+            labels[name] = k
             own = _free_dofs(skeleton, bone)
             solved += [skeleton.dof_names()[d] for d in own if len(pending) == len(own)]
             residuals.append(error)

@@ -18,7 +18,8 @@ spin is Eq. 6.11, ``f = f_s / n * sum delta`` (printed in the thesis as ``1 / (f
 not a frequency: ``delta`` is per flash, so it is multiplied by the flashes per second), and the initial axis
 is the mean of the axes.
 
-Beyond the thesis, :func:`rigid_spin` refines all orientations at once under the same flight model (constant
+Beyond the thesis, :func:`anchored_start` chooses the first two orientations by how well a constant spin from
+them explains every ball's markers, and :func:`rigid_spin` refines all orientations at once under the same flight model (constant
 axis and rate: ``R_k = exp(k w / f_s) R_0``) on the markers' assignments from the sequence.
 """
 from __future__ import annotations
@@ -32,7 +33,7 @@ from .ball_model import BallModel
 from .camera import rotation_from_vector, vector_from_rotation
 
 __all__ = ["marker_angles", "energy", "fit_orientation", "orient_sequence", "relative_rotation", "spin_from",
-           "Spin", "rigid_spin", "initial_candidates"]
+           "Spin", "rigid_spin", "initial_candidates", "anchored_start"]
 
 
 def _angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -106,12 +107,53 @@ def _global_start(model, directions, types, w1) -> np.ndarray:
     return min(fits, key=lambda f: f[1])[0]
 
 
+def _robust_energy(R, model, directions, types, cap: float = np.radians(15.0)) -> float:
+    return float(np.sum(np.minimum(marker_angles(R, model, directions, types), cap) ** 2))
+
+
+def anchored_start(model: BallModel, observations: list[tuple[np.ndarray, np.ndarray]],
+                   keep: int = 10) -> tuple[np.ndarray, np.ndarray] | None:
+    """The first orientation and the rotation per flash that explain the whole sequence best (beyond the
+    thesis' independent start of the first two balls, which a ball with two or three markers can mislead):
+    for two successive balls with at least two markers, every pair of their candidate orientations
+    (:func:`initial_candidates`, the ``keep`` best of each) gives a rotation per flash; the pair whose constant
+    spin fits the markers of all balls best wins. None when no two successive balls have two markers."""
+    best = None
+    for k in range(len(observations) - 1):
+        (da, ta), (db, tb) = observations[k], observations[k + 1]
+        if len(da) < 2 or len(db) < 2:
+            continue
+        ranked = []
+        for d, t in ((da, ta), (db, tb)):
+            cands = initial_candidates(model, d, t)
+            ranked.append(sorted(cands, key=lambda R: energy(R, model, d, t, None, 1.0, 0.0))[:keep])
+        for Ra in ranked[0]:
+            for Rb in ranked[1]:
+                step = Rb @ Ra.T
+                turn = vector_from_rotation(step)
+                first = rotation_from_vector(-turn * k) @ Ra
+                score = sum(_robust_energy(rotation_from_vector(turn * j) @ first, model, d, t)
+                            for j, (d, t) in enumerate(observations))
+                if best is None or score < best[0]:
+                    best = (score, first, turn)
+        if best is not None:
+            break
+    return None if best is None else (best[1], best[2])
+
+
 def orient_sequence(model: BallModel, observations: list[tuple[np.ndarray, np.ndarray]], w1: float = 1.0,
-                    w2: float = 0.1) -> list[np.ndarray]:
+                    w2: float = 0.1, anchored: bool = True) -> list[np.ndarray]:
     """Orientations of the ball at its successive positions (module docstring): ``observations[k]`` =
-    (marker directions (n, 3) from the ball centre, their type indices (n,))."""
+    (marker directions (n, 3) from the ball centre, their type indices (n,)). With ``anchored``, the first two
+    start from :func:`anchored_start` instead of their own markers alone."""
     out: list[np.ndarray] = []
+    start = anchored_start(model, observations) if anchored else None
     for k, (directions, types) in enumerate(observations):
+        if k < 2 and start is not None:
+            predicted = rotation_from_vector(start[1] * k) @ start[0]
+            out.append(fit_orientation(model, directions, types, predicted, predicted, w1, w2)[0]
+                       if len(directions) else predicted)
+            continue
         if k < 2:
             out.append(_global_start(model, directions, types, w1))
             continue

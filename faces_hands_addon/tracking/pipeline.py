@@ -198,8 +198,9 @@ class PitchTracker:
             per_pair.append(pair_markers(pair, found))
         markers = merge_pairs(per_pair)
         rest = layout.rest
-        spacing = np.sort(np.linalg.norm(rest[:, None] - rest[None], axis=2), axis=1)[:, 1]
-        clusters = cluster_hands(markers, 1.5 * float(spacing.max()))
+        distances = np.linalg.norm(rest[:, None] - rest[None], axis=2)
+        spacing = np.sort(distances, axis=1)[:, 1]
+        clusters = cluster_hands(markers, 1.5 * float(spacing.max()), span=1.1 * float(distances.max()))
         poses = []
         for group in clusters:
             names = [colours[c] for c in markers.colours[group]]

@@ -37,8 +37,9 @@ def _split(image_value: np.ndarray, found, warnings: list[str], name: str) -> li
     for s in found.silhouettes:
         if s.merged and radius:
             parts = split_merged(image_value, s, radius, 0.5 * found.threshold + 0.25)
-            warnings.append(f"{name}: two balls overlap near pixel ({s.centre[0]:.0f}, {s.centre[1]:.0f}); "
-                            f"separated by their circles ({len(parts)} found)")
+            if len(parts) == 2:
+                warnings.append(f"{name}: two balls overlap near pixel ({s.centre[0]:.0f}, {s.centre[1]:.0f}); "
+                                "separated by their circles")
             out += parts
         else:
             out.append(s)

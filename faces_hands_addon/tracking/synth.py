@@ -204,11 +204,14 @@ def board_poses(camera: Camera, inner: tuple[int, int], square: float, count: in
 
 
 def object_points(centre, size: float) -> np.ndarray:
-    """The 3D calibration object's sphere centres: the corners of a cube of edge ``size`` (8, 3), turned 25
-    degrees about the vertical and tipped 20 degrees, so that no camera of the set-up sees two corners in line."""
+    """The 3D calibration object's sphere centres (16, 3): the corners of a cube of edge ``size`` turned 25
+    degrees about the vertical and tipped 20 degrees, then the corners of a cube half that size inside it,
+    turned another 45 degrees; corner k of both cubes has colour k (:func:`.calibration_set.object_centres`
+    tells them apart by the pose that fits)."""
     corners = np.array([[x, y, z] for z in (-1, 1) for y in (-1, 1) for x in (-1, 1)], float)
     turn = rotation_from_vector(np.radians([20.0, 0.0, 0.0])) @ rotation_from_vector(np.radians([0.0, 0.0, 25.0]))
-    return np.asarray(centre, float) + 0.5 * size * corners @ turn.T
+    inner = turn @ rotation_from_vector(np.radians([0.0, 0.0, 45.0])) @ rotation_from_vector(np.radians([25, 0, 0]))
+    return np.asarray(centre, float) + np.vstack([0.5 * size * corners @ turn.T, 0.25 * size * corners @ inner.T])
 
 
 def photo_from_render(render: np.ndarray, camera: Camera, rng, sigma: float) -> np.ndarray:

@@ -82,7 +82,8 @@ def render_calibration(scene, cameras: dict, setup: dict, rng) -> dict[str, dict
                                             setup["noise_sigma"]))
         placement = next(o for o in spec["objects"].values() if name in o["cameras"])
         pieces = []
-        for point, colour in zip(object_points(placement["centre"], placement["size"]), spec["colours"]):
+        colours = spec["colours"] * 2
+        for point, colour in zip(object_points(placement["centre"], placement["size"]), colours):
             sphere = tm.icosphere(spec["sphere_radius"], OBJECT_RGB[colour], 3)
             pieces.append(Piece([(sphere.vertices + point, sphere.faces, sphere.colours)], point,
                                 spec["sphere_radius"]))

@@ -86,7 +86,7 @@ def _calibration_setup(setup: dict, photo: dict) -> dict:
     spec = setup["calibration"]
     objects = {}
     for name, placement in spec["objects"].items():
-        objects[name] = {"cameras": placement["cameras"], "colours": spec["colours"],
+        objects[name] = {"cameras": placement["cameras"], "colours": spec["colours"] * 2,
                          "points": object_points(placement["centre"], placement["size"]).tolist()}
     return {"format": "faces_hands.pitch_calibration_photos", "version": 1, "board": spec["board"],
             "objects": objects, "pairs": setup["pairs"],
