@@ -25,7 +25,7 @@ __all__ = ["PHOTOS_FORMAT", "object_centres", "identify_spheres", "calibrate_set
 PHOTOS_FORMAT = register_format(PresetFormat(
     "faces_hands.pitch_calibration_photos", 1, required=("board", "objects", "pairs", "strobes"),
     shape={"board": {"inner": [NUMBER], "square": NUMBER}, "objects": {str: ANY}, "pairs": {str: [str]},
-           "strobes": {str: ANY}, "plate_direction": [NUMBER], "hand": ANY}))
+           "strobes": {str: ANY}, "plate_direction": [NUMBER], "hand": ANY, "single": [str]}))
 
 
 def object_centres(image: np.ndarray, colours: list[str]) -> dict[str, list[np.ndarray]]:

@@ -23,7 +23,7 @@ GLOVE_FORMAT = register_format(PresetFormat(
     "faces_hands.pitch_glove", 1, required=("colours", "markers", "back", "assignment"),
     shape={"description": str, "colours": [str], "rgb": {str: [NUMBER]}, "marker_radius": NUMBER, "back": [str],
            "markers": [{"name": str, "bone": str, "along": NUMBER, "lateral": NUMBER}],
-           "assignment": {str: str}}))
+           "assignment": {str: str}, "surface": bool}))
 DORSAL = np.array([-1.0, 0.0, 0.0])     # the back of the right hand in the rig's asset frame (palm towards +X)
 ULNAR = np.array([0.0, 1.0, 0.0])       # towards the little finger
 
@@ -72,7 +72,7 @@ def glove_layout(skeleton, rest_skin: np.ndarray, document: dict | None = None) 
         point = point + float(m["lateral"]) * ULNAR
         names.append(m["name"])
         bones.append(b)
-        rest.append(_dorsal_skin(point, rest_skin))
+        rest.append(_dorsal_skin(point, rest_skin) if doc.get("surface", True) else point)
         colours.append(doc["assignment"].get(m["name"], doc["colours"][len(names) % len(doc["colours"])]))
     unknown = [c for c in colours if c not in doc["colours"]]
     if unknown or len(set(names)) != len(names):

@@ -100,18 +100,18 @@ def _fit_step(skeleton, layout: GloveLayout, root, angles, dofs: list[int], mark
     return couple_rotations(skeleton, out), float(np.linalg.norm(fit.fun))
 
 
-def _best_marker(skeleton, layout, root, angles, pending, marker, points, colours, used):
+def _best_marker(skeleton, layout, root, angles, pending, marker, points, colours, used, reach=REACH):
     best = None
     for k in np.flatnonzero(colours == layout.colours[marker]):
         if k in used:
             continue
         trial, error = _fit_step(skeleton, layout, root, angles, pending, marker, points[k])
-        if error < REACH and (best is None or error < best[2]):
+        if error < reach and (best is None or error < best[2]):
             best = (int(k), trial, error)
     return best
 
 
-def _chains(skeleton, layout, root, prior, points, colours, used: set):
+def _chains(skeleton, layout, root, prior, points, colours, used: set, reach: float = REACH):
     """Two passes over the fingers: first each joint from its own next marker only, stopping a finger at its
     first missing marker; then, with the markers nobody claimed, the stopped fingers go on, solving the joint
     before a missing marker together with the next (a finger bending across cannot steal its neighbour's
@@ -123,7 +123,7 @@ def _chains(skeleton, layout, root, prior, points, colours, used: set):
         for step, (bone, name) in enumerate(chain):
             marker = layout.names.index(name)
             best = _best_marker(skeleton, layout, root, angles, _free_dofs(skeleton, bone), marker, points, colours,
-                                used)
+                                used, reach)
             if best is None:
                 stopped[finger] = step
                 break
@@ -137,7 +137,7 @@ def _chains(skeleton, layout, root, prior, points, colours, used: set):
         for bone, name in CHAINS[finger][first:]:
             marker = layout.names.index(name)
             pending += _free_dofs(skeleton, bone)
-            best = _best_marker(skeleton, layout, root, angles, pending, marker, points, colours, used)
+            best = _best_marker(skeleton, layout, root, angles, pending, marker, points, colours, used, reach)
             if best is None:
                 missing.append(name)
                 continue
@@ -151,7 +151,7 @@ def _chains(skeleton, layout, root, prior, points, colours, used: set):
     return angles, labels, solved, missing, residuals
 
 
-def _roots(layout: GloveLayout, points, colours) -> list[tuple[np.ndarray, tuple]]:
+def _roots(layout: GloveLayout, points, colours, tolerance: float = BACK_TOLERANCE) -> list[tuple[np.ndarray, tuple]]:
     back = layout.rest[layout.back]
     wanted = [layout.colours[i] for i in layout.back]
     model = [np.linalg.norm(back[a] - back[b]) for a, b in ((0, 1), (1, 2), (0, 2))]
@@ -162,23 +162,26 @@ def _roots(layout: GloveLayout, points, colours) -> list[tuple[np.ndarray, tuple
             continue
         p = points[list(triple)]
         seen = [np.linalg.norm(p[a] - p[b]) for a, b in ((0, 1), (1, 2), (0, 2))]
-        if max(abs(s - m) for s, m in zip(seen, model)) < BACK_TOLERANCE:
+        if max(abs(s - m) for s, m in zip(seen, model)) < tolerance:
             out.append((horn(back, p), triple))
     return out
 
 
 def solve_hand(skeleton, layout: GloveLayout, points: np.ndarray, colour_names: list[str],
-               prior: np.ndarray | None = None) -> HandPose | None:
+               prior: np.ndarray | None = None, reach: float = REACH,
+               back_tolerance: float = BACK_TOLERANCE) -> HandPose | None:
     """The hand pose of one cluster of markers (``points`` (N, 3), ``colour_names`` (N,)), or None when the
-    three back-of-hand markers are not all there (6.3.2: only then is the root determined)."""
+    three back-of-hand markers are not all there (6.3.2: only then is the root determined). ``reach`` and
+    ``back_tolerance`` (metres) say how far a marker may be from where the model can put it."""
     colours = np.array(colour_names, dtype=object)
     prior = np.zeros(skeleton.dof_count) if prior is None else np.asarray(prior, np.float64)
     best = None
-    for root, triple in _roots(layout, points, colours):
+    for root, triple in _roots(layout, points, colours, back_tolerance):
         used = set(int(k) for k in triple)
-        angles, labels, solved, missing, residuals = _chains(skeleton, layout, root, prior, points, colours, used)
+        angles, labels, solved, missing, residuals = _chains(skeleton, layout, root, prior, points, colours, used,
+                                                             reach)
         labels.update({layout.names[i]: int(k) for i, k in zip(layout.back, triple)})
-        score = float(np.sum(residuals)) + REACH * len(missing)
+        score = float(np.sum(residuals)) + reach * len(missing)
         if best is None or score < best[0]:
             best = (score, HandPose(root, angles, labels, solved, float(np.mean(residuals or [0.0])), missing))
     return None if best is None else best[1]

@@ -19,7 +19,7 @@ SETUP_FORMAT = register_format(PresetFormat(
     "faces_hands.pitch_setup", 1, required=("strobes", "pairs", "cameras", "plate_direction"),
     shape={"description": str, "plate_direction": [NUMBER], "strobes": {str: ANY}, "pairs": {str: [str]},
            "cameras": {str: ANY}, "views": ANY, "calibration": ANY, "jitter_m": NUMBER, "distortion": ANY,
-           "principal_jitter_px": NUMBER, "noise_sigma": NUMBER}))
+           "principal_jitter_px": NUMBER, "noise_sigma": NUMBER, "video": ANY}))
 PITCHES_FORMAT = register_format(PresetFormat(
     "faces_hands.pitch_types", 1, required=("pitches",),
     shape={"description": str, "release_point": [NUMBER], "target": [NUMBER], "jitter": {str: NUMBER},

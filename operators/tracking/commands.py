@@ -23,6 +23,7 @@ class SynthPitch:
         parser.add_argument("--out", required=True, help="output folder (photos/, calibration/, truth.json)")
         parser.add_argument("--no-calibration", action="store_true",
                             help="skip the calibration photos (another set with the same seed has them)")
+        parser.add_argument("--no-video", action="store_true", help="skip the high-speed video (markerless replay)")
 
     @staticmethod
     def run(args, progress) -> int:
@@ -31,7 +32,7 @@ class SynthPitch:
             raise UserError(f"output folder {out} is not empty; give a new folder")
         if not 0 <= args.seed < 2 ** 31:
             raise UserError("--seed must be between 0 and 2^31 - 1")
-        files = services.synthesise(out, args.pitch, args.seed, not args.no_calibration, progress)
+        files = services.synthesise(out, args.pitch, args.seed, not args.no_calibration, progress, not args.no_video)
         print(f"wrote {len(files)} files into {out} ({sum(f.stat().st_size for f in files) / 1e6:.1f} MB)")
         return 0
 
@@ -82,4 +83,24 @@ class TrackPitch:
         return 0
 
 
-COMMANDS = [SynthPitch, CalibratePitch, TrackPitch]
+class TrackVideo:
+    NAME = "track-video"
+    HELP = "the markerless replay: hand landmarks and ball from an ordinary high-speed video of a throw (.blend or .glb)"
+
+    @staticmethod
+    def add_arguments(parser):
+        parser.add_argument("--frames", required=True, help="folder with the frames and video.json (camera, fps)")
+        parser.add_argument("--calib", required=True, help="calibration .json naming the video camera")
+        parser.add_argument("--out", required=True, help="output .blend or .glb (the replay)")
+
+    @staticmethod
+    def run(args, progress) -> int:
+        out = check_output_path(args.out, (".blend", ".glb"))
+        services.refuse_inside(out, Path(args.frames))
+        files, summary = services.track_video_to_file(Path(args.frames), Path(args.calib), out, progress)
+        print(summary)
+        print(written(files))
+        return 0
+
+
+COMMANDS = [SynthPitch, CalibratePitch, TrackPitch, TrackVideo]

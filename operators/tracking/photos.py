@@ -57,7 +57,7 @@ def calibrate_folder(folder: Path, progress):
         raise UserError(f"{folder} has no setup.json describing the calibration board and object")
     doc = parse_preset(read_preset_text(description), str(description), PHOTOS_FORMAT.name)
     files = photo_files(folder)
-    names = sorted({n for pair in doc["pairs"].values() for n in pair})
+    names = sorted({n for pair in doc["pairs"].values() for n in pair} | set(doc.get("single", [])))
     photos = {}
     for name in names:
         boards = sorted(k for k in files if k.startswith(f"{name}_board_"))

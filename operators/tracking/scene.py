@@ -13,7 +13,7 @@ from mathutils import Matrix
 from ..common.render import quiet_stdout, read_png
 
 __all__ = ["setup_render", "mesh_object", "place_camera", "render_array", "camera_object", "remove_objects",
-           "CV_TO_BLENDER"]
+           "CV_TO_BLENDER", "srgb_to_linear"]
 
 CV_TO_BLENDER = np.diag([1.0, -1.0, -1.0])    # camera axes: x right, y down, z forward -> Blender's -z forward
 
@@ -45,13 +45,20 @@ def setup_render(scene, size: tuple[int, int], samples: str = "16") -> None:
     scene.view_settings.gamma = 1.0
 
 
+def srgb_to_linear(colours: np.ndarray) -> np.ndarray:
+    c = np.clip(np.asarray(colours, np.float64), 0.0, 1.0)
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
 def mesh_object(name: str, vertices: np.ndarray, faces, colours: np.ndarray | None, collection) -> bpy.types.Object:
-    """An object with a mesh of ``vertices`` and ``faces`` and per-vertex ``colours`` (linear RGB)."""
+    """An object with a mesh of ``vertices`` and ``faces`` and per-vertex ``colours``: display (sRGB) values,
+    stored linear so that a flat render shows exactly them (the engine's colour classes are hues of the
+    photo)."""
     mesh = bpy.data.meshes.new(name)
     mesh.from_pydata(np.asarray(vertices, np.float64).tolist(), [], [tuple(int(i) for i in f) for f in faces])
     if colours is not None:
         attribute = mesh.color_attributes.new("Col", "FLOAT_COLOR", "POINT")
-        rgba = np.column_stack([np.clip(colours, 0, 1), np.ones(len(colours))]).astype(np.float32)
+        rgba = np.column_stack([srgb_to_linear(colours), np.ones(len(colours))]).astype(np.float32)
         attribute.data.foreach_set("color", rgba.ravel())
         mesh.color_attributes.active_color = attribute
     mesh.update()

@@ -11,7 +11,7 @@ import bpy
 from ...faces_hands_addon.core.errors import UserError
 from ..common.outputs import atomic_output
 
-__all__ = ["synthesise", "calibrate", "track_to_file", "refuse_inside"]
+__all__ = ["synthesise", "calibrate", "track_to_file", "refuse_inside", "track_video_to_file"]
 
 
 def refuse_inside(path: Path, folder: Path) -> None:
@@ -20,10 +20,10 @@ def refuse_inside(path: Path, folder: Path) -> None:
         raise UserError(f"{path} would be written into the input folder {folder}; write it elsewhere")
 
 
-def synthesise(out: Path, pitch: str, seed: int, calibration: bool, progress) -> list[Path]:
+def synthesise(out: Path, pitch: str, seed: int, calibration: bool, progress, video: bool = True) -> list[Path]:
     from .synth_set import write_synthetic_set
     bpy.ops.wm.read_homefile(use_empty=True)
-    return write_synthetic_set(bpy.context.scene, out, pitch, seed, calibration, progress)
+    return write_synthetic_set(bpy.context.scene, out, pitch, seed, calibration, progress, video)
 
 
 def calibrate(folder: Path, out: Path, progress) -> str:
@@ -49,3 +49,15 @@ def track_to_file(photos: Path, calib: Path, out: Path, report: Path | None, pro
             Path(tmp).write_text(json.dumps(job.result.document(), indent=1, sort_keys=True))
         files.append(report)
     return files, summary
+
+
+def track_video_to_file(frames: Path, calib: Path, out: Path, progress):
+    from .jobs import TrackVideoJob
+    from ..common.jobs import run_job
+    from .replay import save_replay
+    bpy.ops.wm.read_homefile(use_empty=True)
+    job = TrackVideoJob(frames, calib)
+    summary = run_job(job, bpy.context, progress)
+    for warning in job.warnings:
+        print(f"warning: {warning}")
+    return [save_replay(bpy.context, out)], summary

@@ -17,9 +17,9 @@ from ...faces_hands_addon.tracking import meshes as tm
 from ...faces_hands_addon.tracking.ball_model import ball_model
 from ...faces_hands_addon.tracking.calibrate import board_points
 from ...faces_hands_addon.tracking.synth import board_poses, object_points, photo_from_render
-from .scene import camera_object, mesh_object, place_camera, remove_objects, render_array, setup_render
+from .scene import camera_object, mesh_object, place_camera, remove_objects, render_array, setup_render, srgb_to_linear
 
-__all__ = ["render_groups", "render_calibration", "render_photos", "Piece"]
+__all__ = ["render_groups", "render_calibration", "render_photos", "Piece", "render_video"]
 
 OBJECT_RGB = {"red": (1, 0, 0), "orange": (1, 0.5, 0), "yellow": (1, 1, 0), "green": (0, 1, 0),
               "cyan": (0, 1, 1), "blue": (0, 0, 1), "magenta": (1, 0, 1), "white": (1, 1, 1)}
@@ -113,3 +113,25 @@ def render_photos(scene, cameras: dict, setup: dict, truth: dict, hand_pieces: l
         for name in setup["pairs"][role]:
             out[name] = render_groups(scene, cameras[name], hand_pieces, name)
     return {name: photo_from_render(image, cameras[name], rng, setup["noise_sigma"]) for name, image in out.items()}
+
+
+def render_video(scene, camera, frames: list[list[Piece]], background: float, rng, sigma: float) -> list[np.ndarray]:
+    """Frames of an ordinary video (studio light on vertex colours, a dark room), one render per frame."""
+    cam_obj = camera_object("FH Synth video", scene.collection)
+    place_camera(cam_obj, camera)
+    out = []
+    try:
+        for pieces in frames:
+            setup_render(scene, camera.size, "8")
+            scene.display.shading.light = "STUDIO"
+            scene.world.color = tuple(float(v) for v in srgb_to_linear([background] * 3))
+            objects = [mesh_object(f"FH Synth frame {k}", v, f, c, scene.collection)
+                       for k, piece in enumerate(pieces) for v, f, c in piece.parts]
+            try:
+                image = render_array(scene, cam_obj, camera.size)
+            finally:
+                remove_objects(objects)
+            out.append(photo_from_render(image, camera, rng, sigma))
+    finally:
+        remove_objects([cam_obj])
+    return out

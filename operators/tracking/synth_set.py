@@ -24,7 +24,7 @@ from ...faces_hands_addon.tracking.hand_pose import couple_rotations
 from ...faces_hands_addon.tracking.setup import setup_preset
 from ...faces_hands_addon.tracking.synth import hand_motion, object_points, pitcher_hand, synthetic_pitch, synthetic_rig
 from ..common.render import write_png
-from .synth_render import Piece, ball_piece, render_calibration, render_photos
+from .synth_render import Piece, ball_piece, render_calibration, render_photos, render_video
 
 __all__ = ["write_synthetic_set", "BALL_IN_HAND"]
 
@@ -71,6 +71,40 @@ def _hand_pieces(truth: dict, rig, layout, setup: dict, rng) -> tuple[list[Piece
     return pieces, hand
 
 
+SKIN_RGB = (0.8, 0.6, 0.5)
+
+
+def _video(scene, out: Path, truth: dict, rig, setup: dict, cameras: dict, rng) -> tuple[list[Path], dict]:
+    """The high-speed video (``video/frame_<k>.png`` and ``video/video.json``): the bare hand in skin colour,
+    a plain white ball, from the video camera of the set-up."""
+    spec = setup["video"]
+    times = np.arange(spec["start"], spec["end"], 1.0 / spec["fps"])
+    skeleton = rig.skeleton
+    roots, angles = hand_motion(truth["spec"], np.random.default_rng([truth["seed"], 6]), skeleton,
+                                skeleton.dof_names(), times, truth["release"], truth["velocity"], BALL_IN_HAND)
+    angles = np.array([couple_rotations(skeleton, a) for a in angles])
+    sphere = tm.icosphere(ball_model().radius, (0.92, 0.92, 0.92), 4)
+    rest, faces, weights = rig.rest_positions.astype(np.float64), rig.faces, rig.skin_weights()
+    frames = []
+    for t, root, a in zip(times, roots, angles):
+        skin = tm.skinned(rest, weights, skeleton.bone_transforms(a), root)
+        ball = root[:3, :3] @ BALL_IN_HAND + root[:3, 3] if t < 0 else truth["flight"].at(t)[0]
+        frames.append([Piece([(skin, faces, np.tile(SKIN_RGB, (len(skin), 1))),
+                              (sphere.vertices + ball, sphere.faces, sphere.colours)], root[:3, 3], 0.2)])
+    images = render_video(scene, cameras[spec["camera"]], frames, spec["background"], rng, setup["noise_sigma"])
+    folder = out / "video"
+    folder.mkdir(parents=True, exist_ok=True)
+    written = []
+    for k, image in enumerate(images):
+        written.append(folder / f"frame_{k:04d}.png")
+        _png(image, written[-1])
+    written.append(folder / "video.json")
+    written[-1].write_text(json.dumps({"format": "faces_hands.pitch_video", "version": 1, "camera": spec["camera"],
+                                       "fps": spec["fps"]}, indent=1))
+    ball = [truth["flight"].at(t)[0].tolist() if t >= 0 else None for t in times]
+    return written, {"times": times.tolist(), "roots": roots.tolist(), "angles": angles.tolist(), "ball": ball}
+
+
 def _truth_document(truth: dict, cameras: dict, hand: dict, photo: dict) -> dict:
     return {"format": "faces_hands.pitch_truth", "version": 1, "pitch": truth["pitch"], "seed": truth["seed"],
             "release": truth["release"].tolist(), "velocity": truth["velocity"].tolist(),
@@ -91,10 +125,12 @@ def _calibration_setup(setup: dict, photo: dict) -> dict:
     return {"format": "faces_hands.pitch_calibration_photos", "version": 1, "board": spec["board"],
             "objects": objects, "pairs": setup["pairs"],
             "strobes": {k: {"hz": v["hz"]} for k, v in setup["strobes"].items()},
-            "plate_direction": setup["plate_direction"], "hand": {"photo": photo}}
+            "plate_direction": setup["plate_direction"], "hand": {"photo": photo},
+            "single": [setup["video"]["camera"]] if "video" in setup else []}
 
 
-def write_synthetic_set(scene, out: Path, pitch: str, seed: int, calibration: bool = True, progress=None) -> list[Path]:
+def write_synthetic_set(scene, out: Path, pitch: str, seed: int, calibration: bool = True, progress=None,
+                        video: bool = True) -> list[Path]:
     """Render one synthetic pitch set into ``out`` (module docstring); returns the written files."""
     progress = progress or (lambda fraction, message="": None)
     setup = setup_preset()
@@ -123,6 +159,11 @@ def write_synthetic_set(scene, out: Path, pitch: str, seed: int, calibration: bo
     for name, image in render_photos(scene, cameras, setup, truth, pieces, rng).items():
         written.append(out / "photos" / f"{name}.png")
         _png(image, written[-1])
+    document = _truth_document(truth, cameras, hand, photo)
+    if video and "video" in setup:
+        progress(0.85, "rendering the high-speed video")
+        files, document["video"] = _video(scene, out, truth, rig, setup, cameras, rng)
+        written += files
     written.append(out / "truth.json")
-    written[-1].write_text(json.dumps(_truth_document(truth, cameras, hand, photo), indent=1, sort_keys=True))
+    written[-1].write_text(json.dumps(document, indent=1, sort_keys=True))
     return written
