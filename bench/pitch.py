@@ -33,6 +33,7 @@ from faces_hands_addon.tracking.camera import Camera  # noqa: E402
 from faces_hands_addon.tracking.flight import MPH, RPM, fly  # noqa: E402
 from faces_hands_addon.tracking.pipeline import PitchTracker  # noqa: E402
 from faces_hands_addon.tracking.setup import PITCH_TYPES, read_calibration  # noqa: E402
+from faces_hands_addon.tracking.markerless import track_video  # noqa: E402
 from faces_hands_addon.tracking.synth import pitcher_hand  # noqa: E402
 
 services = _harness.addon_module("operators.tracking.services")
@@ -44,12 +45,39 @@ def angle_deg(a, b) -> float:
 
 
 def render(work: Path, seed: int, pitch: str, calibration: bool) -> Path:
+    """The seed's first pitch carries the calibration photos and the high-speed video."""
     folder = work / f"seed{seed}" / pitch
     if (folder / "truth.json").exists():
         return folder
     folder.mkdir(parents=True, exist_ok=True)
-    services.synthesise(folder, pitch, seed, calibration, lambda f, m="": None)
+    services.synthesise(folder, pitch, seed, calibration, lambda f, m="": None, video=calibration)
     return folder
+
+
+def evaluate_video(folder: Path, calib: Path) -> dict:
+    """The markerless path on the set's video: joint errors of the fitted hand, ball positions, speed."""
+    truth = json.loads((folder / "truth.json").read_text())
+    calibration = read_calibration(calib)
+    spec = json.loads((folder / "video" / "video.json").read_text())
+    frames = [photos_mod.load_photo(p) for p in sorted((folder / "video").glob("frame_*.png"))]
+    start = time.perf_counter()
+    video = track_video(frames, spec["fps"], calibration.cameras[spec["camera"]], pitcher_hand(truth["seed"])[0].skeleton,
+                        0.0366)
+    seconds = time.perf_counter() - start
+    gt = truth["video"]
+    names = pitcher_hand(truth["seed"])[0].skeleton.dof_names()
+    joint = []
+    for t, pose, _ in video.hands:
+        k = int(round(t * spec["fps"]))
+        joint += [abs(np.degrees(pose.angles[names.index(d)] - gt["angles"][k][names.index(d)])) for d in pose.solved]
+    ball = [np.linalg.norm(p - np.array(gt["ball"][int(round(t * spec["fps"]))]))
+            for t, p in zip(video.ball_times, video.ball) if gt["ball"][int(round(t * spec["fps"]))] is not None]
+    speed = np.nan
+    if video.reference is not None:
+        speed = abs(np.linalg.norm(video.reference.velocity) - np.linalg.norm(truth["velocity"])) / MPH
+    return {"video_hand_err_deg": float(np.mean(joint)) if joint else np.nan, "video_hands": len(video.hands),
+            "video_frames": len(frames), "video_ball_err_mm": 1000 * float(np.mean(ball)) if ball else np.nan,
+            "video_speed_err_mph": speed, "video_seconds": seconds}
 
 
 def calibrate(work: Path, seed: int, first: Path) -> tuple[Path, float]:
@@ -124,12 +152,18 @@ def main() -> None:
     parser.add_argument("--work", default="/tmp/fh-pitch-bench")
     args = parser.parse_args()
     work = Path(args.work)
-    rows = []
+    rows, videos = [], []
     for seed in [int(s) for s in args.seeds.split(",")]:
         pitches = args.pitches.split(",")
         first = render(work, seed, pitches[0], True)
         calib, calib_seconds = calibrate(work, seed, first)
         print(f"seed {seed}: calibration {calib_seconds:.1f} s", flush=True)
+        if (first / "video").is_dir():
+            video = evaluate_video(first, calib)
+            videos.append(video)
+            print(f"video (markerless, {pitches[0]}): hand {video['video_hand_err_deg']:.1f} deg in {video['video_hands']}/"
+                  f"{video['video_frames']} frames, ball {video['video_ball_err_mm']:.0f} mm, speed "
+                  f"{video['video_speed_err_mph']:.2f} mph, {video['video_seconds']:.0f} s", flush=True)
         for pitch in pitches:
             folder = render(work, seed, pitch, False)
             row = {"seed": seed, "pitch": pitch, **evaluate(folder, calib)}
@@ -147,6 +181,9 @@ def main() -> None:
                       f"d|v0| {t['v0_diff_mph']:.2f} mph, angle(w) {t['axis_angle_deg']:.2f} deg, "
                       f"|w_ref| {t['spin_ref_rpm']:.0f} rpm, d|w| {t['spin_diff_rpm']:.1f} rpm", flush=True)
 
+    def vstat(key):
+        return float(np.nanmean([v[key] for v in videos])) if videos else float("nan")
+
     def stat(key, how=np.nanmean):
         values = [r.get(key, np.nan) for r in rows]
         return float(how(values)) if values else float("nan")
@@ -155,7 +192,8 @@ def main() -> None:
           f"speed_err_mph={stat('speed_err_mph'):.3f} speed_err_mph_max={stat('speed_err_mph', np.nanmax):.3f} "
           f"spin_err_rpm={stat('spin_err_rpm'):.2f} spin_err_rpm_max={stat('spin_err_rpm', np.nanmax):.2f} "
           f"hand_joint_err_deg={stat('hand_joint_err_deg'):.2f} marker_label_pct={stat('marker_label_pct'):.2f} "
-          f"s_per_pitch={stat('seconds'):.1f}")
+          f"s_per_pitch={stat('seconds'):.1f} video_hand_err_deg={vstat('video_hand_err_deg'):.1f} "
+          f"video_ball_err_mm={vstat('video_ball_err_mm'):.0f}")
 
 
 if __name__ == "__main__":

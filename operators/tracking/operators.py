@@ -19,11 +19,27 @@ class FH_OT_track_pitch(JobOperator, bpy.types.Operator):
     bl_label = "Track Pitch"
     bl_options = {"REGISTER", "UNDO"}
 
-    directory: bpy.props.StringProperty(subtype="DIR_PATH", description="Folder with one photo per camera, named like the cameras")
-    calibration: bpy.props.StringProperty(subtype="FILE_PATH", description="Calibration file written by calibrate-pitch (.json)")
+    filepath: bpy.props.StringProperty(subtype="FILE_PATH", description="Calibration file written by calibrate-pitch (.json)")
+    filter_glob: bpy.props.StringProperty(default="*.json", options={"HIDDEN"}, description="Show calibration files only")
+    photos: bpy.props.StringProperty(name="Photos", subtype="DIR_PATH", default="",
+                                     description="Folder with one multi-exposure photo per camera, named like the cameras "
+                                                 "(default: the folder 'photos' beside the calibration file)")
 
     def make_job(self, context) -> Job:
-        return TrackPitchJob(Path(bpy.path.abspath(self.directory)), Path(bpy.path.abspath(self.calibration)))
+        calibration = Path(bpy.path.abspath(self.filepath))
+        photos = Path(bpy.path.abspath(self.photos)) if self.photos else calibration.parent / "photos"
+        return TrackPitchJob(photos, calibration)
+
+    def invoke(self, context, event):
+        if not self.filepath and context.window is not None:
+            context.window_manager.fileselect_add(self)          # choose the calibration file first
+            return {"RUNNING_MODAL"}
+        return super().invoke(context, event)
+
+    def execute(self, context):
+        if context.window is not None and self._job is None:      # back from the file browser: run modally
+            return super().invoke(context, None)
+        return super().execute(context)
 
 
 CLASSES = [FH_OT_track_pitch]

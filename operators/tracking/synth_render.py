@@ -32,8 +32,9 @@ class Piece:
         self.parts, self.centre, self.radius = parts, centre, radius
 
 
-def render_groups(scene, camera, pieces: list[Piece], name: str) -> np.ndarray:
-    """The sum of the exposures ``pieces`` as ``camera`` sees them (pinhole, top row first)."""
+def render_groups(scene, camera, pieces: list[Piece], name: str, exposures: bool = True) -> np.ndarray:
+    """The sum of the exposures ``pieces`` as ``camera`` sees them (pinhole, top row first); with
+    ``exposures=False`` the pieces are one scene in one exposure (they hide each other)."""
     groups: list[list[int]] = []
     boxes = []
     for k, piece in enumerate(pieces):
@@ -43,6 +44,9 @@ def render_groups(scene, camera, pieces: list[Piece], name: str) -> np.ndarray:
         centre = camera.project(piece.centre[None], distorted=False)[0]
         boxes.append((k, centre, camera.fx * piece.radius / depth))
     for k, centre, radius in boxes:
+        if not exposures and groups:
+            groups[0].append((k, centre, radius))
+            continue
         for group in groups:
             if all(np.linalg.norm(centre - c) > radius + r + 4 for j, c, r in group):
                 group.append((k, centre, radius))
@@ -87,7 +91,7 @@ def render_calibration(scene, cameras: dict, setup: dict, rng) -> dict[str, dict
             sphere = tm.icosphere(spec["sphere_radius"], OBJECT_RGB[colour], 3)
             pieces.append(Piece([(sphere.vertices + point, sphere.faces, sphere.colours)], point,
                                 spec["sphere_radius"]))
-        image = render_groups(scene, camera, pieces, name)
+        image = render_groups(scene, camera, pieces, name, exposures=False)
         out[name] = {"boards": boards, "object": photo_from_render(image, camera, rng, setup["noise_sigma"])}
     return out
 
