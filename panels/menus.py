@@ -9,6 +9,7 @@ import bpy
 ADD_ITEMS = (("faces_hands.build_face_rig", "Face Rig (Default Head)", "USER"),
              ("faces_hands.morph_new_face", "Morphable Face", "SHAPEKEY_DATA"),
              ("faces_hands.build_hand_rig", "Hand Rig", "VIEW_PAN"),
+             ("faces_hands.track_pitch", "Pitch Replay from Photos", "SPHERE"),
              ("faces_hands.add_default_assets", "Default Assets (Skull, Jaw, Face)", "ASSET_MANAGER"))
 
 OBJECT_SECTIONS = (

@@ -51,6 +51,7 @@ class Pin:
     version: str
     sha256: str
     license: str
+    wheel: str = ""     # a platform wheel's file name (pip is asked for exactly that platform and Python)
 
 
 MEDIAPIPE = Pin("npm", "@mediapipe/face_mesh", "0.4.1633559619",
@@ -59,7 +60,14 @@ MYOSIM = Pin("pypi", "myo-sim", "0.2.4",
              "d7a121c5a8623ba6663b6645e8f9e78300b2b1f214f485f6f65e0020fab51a97", "Apache-2.0")
 WEBXR = Pin("npm", "@webxr-input-profiles/assets", "1.0.20",
             "30df2a2268220fc0d0e034bed1550aabdd7a2500573c5216f64fc70d59c3d91e", "MIT")
-PINS = (MEDIAPIPE, MYOSIM, WEBXR)
+# The hand models of MediaPipe's hands solution, bundled in the Python wheel (the same .tflite files in every
+# platform's wheel; the Linux CPython 3.11 one is pinned). Run by faces_hands_addon/detector (numpy).
+MEDIAPIPE_HANDS = Pin("pypi", "mediapipe", "0.10.21",
+                      "05dc4a9e593655a79558d05d6227d31018c2537a4bd3362b51e230cf22aecfe3", "Apache-2.0",
+                      "mediapipe-0.10.21-cp311-cp311-manylinux_2_28_x86_64.whl")
+HAND_MODELS = ("mediapipe/modules/hand_landmark/hand_landmark_full.tflite",
+               "mediapipe/modules/palm_detection/palm_detection_full.tflite")
+PINS = (MEDIAPIPE, MYOSIM, WEBXR, MEDIAPIPE_HANDS)
 
 # myo_sim: skull + jaw, the 27 hand bones, radius, ulna, and the meshes the arm MJCF also names
 # (thorax, clavicle, scapula, humerus) so that myoarm_r_assets.xml resolves every file it references.
@@ -92,6 +100,8 @@ def sha256_of(data: bytes) -> str:
 
 
 def archive_name(pin: Pin) -> str:
+    if pin.wheel:
+        return pin.wheel
     if pin.registry == "npm":
         return pin.name.lstrip("@").replace("/", "-") + f"-{pin.version}.tgz"
     return f"{pin.name.replace('-', '_')}-{pin.version}-py3-none-any.whl"
@@ -106,6 +116,10 @@ def fetch(pin: Pin, folder: Path) -> bytes:
         else:
             cmd = [sys.executable, "-m", "pip", "download", "--no-deps", "--quiet",
                    "--only-binary=:all:", f"{pin.name}=={pin.version}", "-d", str(folder)]
+            if pin.wheel:                # e.g. mediapipe-0.10.21-cp311-cp311-manylinux_2_28_x86_64.whl
+                python, _, platform = pin.wheel[:-4].split("-")[2:5]
+                cmd += ["--platform", platform, "--python-version", python[2:3] + "." + python[3:],
+                        "--implementation", "cp"]
         print(f"== fetching {pin.name} {pin.version} ({pin.registry})")
         result = subprocess.run(cmd, cwd=folder, capture_output=True, text=True)
         if result.returncode != 0:
@@ -388,6 +402,11 @@ def extract_webxr(archive: Archive, out: dict[str, bytes]) -> None:
     out["webxr/generic-hand/profile.json"] = archive.read("package/dist/profiles/generic-hand/profile.json")
 
 
+def extract_hand_models(archive: Archive, out: dict[str, bytes]) -> None:
+    for member in HAND_MODELS:
+        out[f"mediapipe/{member.rsplit('/', 1)[1]}"] = archive.read(member)
+
+
 def licenses(archives: dict[str, Archive], out: dict[str, bytes]) -> None:
     apache = archives["myo-sim"].read("myo_sim-0.2.4.dist-info/licenses/LICENSE")
     out["licenses/myo-sim-0.2.4.LICENSE"] = apache
@@ -398,6 +417,7 @@ def licenses(archives: dict[str, Archive], out: dict[str, bytes]) -> None:
     out["licenses/mediapipe-face_mesh-0.4.1633559619.LICENSE"] = note + apache
     out["licenses/webxr-input-profiles-assets-1.0.20.LICENSE"] = archives["@webxr-input-profiles/assets"].read(
         "package/LICENSE.md")
+    out["licenses/mediapipe-0.10.21.LICENSE"] = archives["mediapipe"].read("mediapipe-0.10.21.dist-info/LICENSE")
 
 
 README = """# Default assets
@@ -413,6 +433,7 @@ Provenance and licenses: `NOTICE` at the extension root and `licenses/`. Checksu
 | `myo_sim/models/meshes/*.stl` | PyPI myo-sim 0.2.4, unmodified (metres, OpenSim axes: +X front, +Y up, +Z right) | Apache-2.0 |
 | `myo_sim/models/arm/assets/*.xml` | PyPI myo-sim 0.2.4, unmodified MyoArm MJCF (MyoHand = its wrist/hand part) | Apache-2.0 |
 | `webxr/generic-hand/*` | npm @webxr-input-profiles/assets 1.0.20, unmodified (glTF: metres, +Y up) | MIT |
+| `mediapipe/hand_landmark_full.tflite`, `mediapipe/palm_detection_full.tflite` | PyPI mediapipe 0.10.21 (cp311 manylinux wheel), unmodified | Apache-2.0 |
 """
 
 
@@ -446,6 +467,7 @@ def main() -> int:
         extract_mediapipe(archives[MEDIAPIPE.name], out)
         extract_myosim(archives[MYOSIM.name], out)
         extract_webxr(archives[WEBXR.name], out)
+        extract_hand_models(archives[MEDIAPIPE_HANDS.name], out)
         licenses(archives, out)
     write_outputs(out)
     return 0
