@@ -67,6 +67,11 @@ MEDIAPIPE_HANDS = Pin("pypi", "mediapipe", "0.10.21",
                       "mediapipe-0.10.21-cp311-cp311-manylinux_2_28_x86_64.whl")
 HAND_MODELS = ("mediapipe/modules/hand_landmark/hand_landmark_full.tflite",
                "mediapipe/modules/palm_detection/palm_detection_full.tflite")
+# The face models of the same wheel (Face Mesh without attention + Iris: 468 + 10 landmarks), run by
+# faces_hands_addon/photo (the photo -> head work, thesis 3.2.4) on the same numpy runtime.
+FACE_MODELS = ("mediapipe/modules/face_detection/face_detection_short_range.tflite",
+               "mediapipe/modules/face_landmark/face_landmark.tflite",
+               "mediapipe/modules/iris_landmark/iris_landmark.tflite")
 PINS = (MEDIAPIPE, MYOSIM, WEBXR, MEDIAPIPE_HANDS)
 
 # myo_sim: skull + jaw, the 27 hand bones, radius, ulna, and the meshes the arm MJCF also names
@@ -403,7 +408,7 @@ def extract_webxr(archive: Archive, out: dict[str, bytes]) -> None:
 
 
 def extract_hand_models(archive: Archive, out: dict[str, bytes]) -> None:
-    for member in HAND_MODELS:
+    for member in HAND_MODELS + FACE_MODELS:
         out[f"mediapipe/{member.rsplit('/', 1)[1]}"] = archive.read(member)
 
 
@@ -434,6 +439,7 @@ Provenance and licenses: `NOTICE` at the extension root and `licenses/`. Checksu
 | `myo_sim/models/arm/assets/*.xml` | PyPI myo-sim 0.2.4, unmodified MyoArm MJCF (MyoHand = its wrist/hand part) | Apache-2.0 |
 | `webxr/generic-hand/*` | npm @webxr-input-profiles/assets 1.0.20, unmodified (glTF: metres, +Y up) | MIT |
 | `mediapipe/hand_landmark_full.tflite`, `mediapipe/palm_detection_full.tflite` | PyPI mediapipe 0.10.21 (cp311 manylinux wheel), unmodified | Apache-2.0 |
+| `mediapipe/face_detection_short_range.tflite`, `mediapipe/face_landmark.tflite`, `mediapipe/iris_landmark.tflite` | same wheel, unmodified | Apache-2.0 |
 """
 
 
