@@ -59,7 +59,7 @@ def model_paths() -> tuple[Path, Path, Path]:
 
 
 def _sigmoid(x) -> np.ndarray:
-    return 1.0 / (1.0 + np.exp(-np.clip(x, -100.0, 100.0)))
+    return 1.0 / (1.0 + np.exp(-np.clip(np.asarray(x, np.float64), -100.0, 100.0)))
 
 
 @dataclass

@@ -21,7 +21,7 @@ from .fit import FitSettings, ShapeFit, View, fit_views
 from .head_model import HeadModel
 from .texture import Texture, bake_texture, texture_size
 
-__all__ = ["Photo", "PhotoHead", "find_landmarks", "head_from_photos", "MIN_INTER_OCULAR", "MAX_YAW", "WARN_YAW"]
+__all__ = ["Photo", "PhotoHead", "HeadBuild", "find_landmarks", "head_from_photos", "MIN_INTER_OCULAR", "MAX_YAW", "WARN_YAW"]
 
 MIN_INTER_OCULAR = 80.0       # px between the iris centres
 MAX_YAW = 60.0                # degrees; beyond, the far side's landmarks are guesses
@@ -52,6 +52,8 @@ class PhotoHead:
     landmarks: list[np.ndarray]
     texture: Texture
     notes: list[str] = field(default_factory=list)
+    mesh: object = None
+    rig: object = None
 
     @property
     def vertices(self) -> np.ndarray:
@@ -93,46 +95,94 @@ def _check_size(points: np.ndarray, name: str) -> None:
                         f"{MIN_INTER_OCULAR:.0f} px are needed for a head; use a larger or closer photo")
 
 
-def head_from_photos(photos: list[Photo], model: HeadModel, settings: FitSettings | None = None,
-                     progress=None, finder=None) -> PhotoHead:
-    """Stages of the module docstring; ``photos[0]`` is the main (front) photo."""
-    def report(fraction: float, message: str) -> None:
-        if progress is not None:
-            progress(fraction, message)
+class HeadBuild:
+    """:func:`head_from_photos` one stage per :meth:`step` (landmarks of each photo, the fit, the colours, the
+    texture, the rig), for a job with a progress bar and ESC; ``result`` when done."""
 
-    if not photos:
-        raise UserError("no photo given")
-    notes, views, landmarks = [], [], []
-    for index, photo in enumerate(photos):
-        report(0.05 + 0.25 * index / len(photos), f"finding the face in {photo.name}")
+    def __init__(self, photos: list[Photo], model: HeadModel, settings: FitSettings | None = None,
+                 finder=None, rig: bool = True, seed: int = 0):
+        if not photos:
+            raise UserError("no photo given")
+        self.photos, self.model, self.settings, self.finder = photos, model, settings, finder
+        self.notes: list[str] = []
+        self.views: list[View] = []
+        self.landmarks: list[np.ndarray] = []
+        self.stages = [lambda p=p: self._landmarks(p) for p in photos]
+        self.stages += [self._fit, self._colours, self._texture] + ([self._rig] if rig else [])
+        self.done = 0
+        self.shape = self.appearance = self.texture = self.result = None
+        self.images: list[np.ndarray] = []
+        self.seed = int(seed)
+        self.label = "finding the face"
+
+    def step(self) -> float:
+        if self.done < len(self.stages):
+            self.stages[self.done]()
+            self.done += 1
+        return self.done / len(self.stages)
+
+    def _landmarks(self, photo: Photo) -> None:
         if photo.landmarks is None:
-            points, found = find_landmarks(photo, finder)
-            notes += found
+            points, found = find_landmarks(photo, self.finder)
+            self.notes += found
         else:
             points = np.asarray(photo.landmarks, np.float64)
+            if points.shape != (478, 3) or not np.isfinite(points).all():
+                raise UserError(f"{photo.name}: the landmarks must be 478 finite points (got {points.shape})")
         _check_size(points, photo.name)
         h, w = photo.pixels.shape[:2]
-        weights = np.ones(len(points))
-        views.append(View(points, w, h, photo.focal_35mm, weights))
-        landmarks.append(points)
-    report(0.35, "fitting the morphable model")
-    shape = fit_views(model, views, settings)
-    notes += shape.notes
-    yaw, pitch, _ = yaw_pitch_roll(shape.cameras[0].rotation)
-    if abs(yaw) > MAX_YAW and photos[0].role == "front":
-        raise UserError(f"{photos[0].name}: the face is turned {abs(yaw):.0f} degrees from the camera; a head is "
-                        f"made from a photo turned less than {MAX_YAW:.0f} degrees (give a side view as --profile "
-                        "with a front photo)")
-    if abs(yaw) > WARN_YAW:
-        notes.append(f"{photos[0].name}: the face is turned {abs(yaw):.0f} degrees; its far side is filled from "
-                     "the near side and the model")
-    notes.append(f"pose of {photos[0].name}: yaw {yaw:.1f}, pitch {pitch:.1f} degrees")
-    report(0.6, "analysing the colours")
-    images = [srgb_to_linear(p.pixels) for p in photos]
-    appearance = [fit_appearance(model, shape.vertices, camera, image) for camera, image in zip(shape.cameras, images)]
-    report(0.8, "baking the texture")
-    face_px = float(np.linalg.norm(landmarks[0][454, :2] - landmarks[0][234, :2]))
-    texture = bake_texture(shape.vertices, model.triangles, model.uvs, model.mirror, shape.cameras[0],
-                           appearance[0].lighting, images[0], appearance[0].albedo, texture_size(face_px))
-    report(1.0, "head fitted")
-    return PhotoHead(model, shape, appearance, landmarks, texture, notes)
+        self.views.append(View(points, w, h, photo.focal_35mm, np.ones(len(points))))
+        self.landmarks.append(points)
+        self.label = "fitting the morphable model"
+
+    def _fit(self) -> None:
+        self.shape = fit_views(self.model, self.views, self.settings)
+        self.notes += self.shape.notes
+        main = self.photos[0]
+        yaw, pitch, _ = yaw_pitch_roll(self.shape.cameras[0].rotation)
+        if abs(yaw) > MAX_YAW and main.role == "front":
+            raise UserError(f"{main.name}: the face is turned {abs(yaw):.0f} degrees from the camera; a head is "
+                            f"made from a photo turned less than {MAX_YAW:.0f} degrees (give a side view as "
+                            "--profile with a front photo)")
+        if abs(yaw) > WARN_YAW:
+            self.notes.append(f"{main.name}: the face is turned {abs(yaw):.0f} degrees; its far side is filled from "
+                              "the near side and the model")
+        self.notes.append(f"pose in {main.name}: yaw {yaw:.1f}, pitch {pitch:.1f} degrees")
+        self.label = "analysing the colours"
+
+    def _colours(self) -> None:
+        self.images = [srgb_to_linear(p.pixels) for p in self.photos]
+        self.appearance = [fit_appearance(self.model, self.shape.vertices, camera, image)
+                           for camera, image in zip(self.shape.cameras, self.images)]
+        self.label = "baking the texture"
+
+    def _texture(self) -> None:
+        face_px = float(np.linalg.norm(self.landmarks[0][454, :2] - self.landmarks[0][234, :2]))
+        self.texture = bake_texture(self.shape.vertices, self.model.triangles, self.model.uvs, self.model.mirror,
+                                    self.shape.cameras[0], self.appearance[0].lighting, self.images[0],
+                                    self.appearance[0].albedo, texture_size(face_px))
+        self.result = PhotoHead(self.model, self.shape, self.appearance, self.landmarks, self.texture, self.notes)
+        self.label = "fitting the face rig"
+
+    def _rig(self) -> None:
+        from ..face.fitted import build_fitted_rig
+        from .head_mesh import rig_mesh
+        mesh = rig_mesh(self.model)
+        vertices = mesh.vertices(self.shape.vertices)
+        self.result.mesh = mesh
+        self.result.rig = build_fitted_rig(vertices, mesh.triangles, landmarks=vertices[mesh.landmarks],
+                                           seed=self.seed)
+
+
+def head_from_photos(photos: list[Photo], model: HeadModel, settings: FitSettings | None = None,
+                     progress=None, finder=None, rig: bool = False) -> PhotoHead:
+    """Stages of the module docstring; ``photos[0]`` is the main (front) photo; ``rig``: also fit the face
+    rig to the head (``result.rig`` on ``result.mesh``)."""
+    build = HeadBuild(photos, model, settings, finder, rig)
+    fraction = 0.0
+    while fraction < 1.0:
+        label = build.label
+        fraction = build.step()
+        if progress is not None:
+            progress(fraction, label)
+    return build.result

@@ -8,7 +8,7 @@ import bpy
 
 from ...faces_hands_addon.core.errors import UserError
 from ...faces_hands_addon.tracking.setup import PITCH_TYPES
-from ..common.outputs import check_output_dir, check_output_path, written
+from ..adapters.outputs import check_output_dir, check_output_path, written
 from . import services
 
 

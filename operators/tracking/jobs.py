@@ -9,7 +9,7 @@ from ...faces_hands_addon.core.errors import UserError
 from ...faces_hands_addon.tracking.ball_model import ball_model
 from ...faces_hands_addon.tracking.pipeline import PitchTracker
 from ...faces_hands_addon.tracking.setup import read_calibration
-from ..common.jobs import Job
+from ..bases.jobs import Job
 from .photos import load_photo, photo_files
 
 __all__ = ["TrackPitchJob", "TrackVideoJob"]

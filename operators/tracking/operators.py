@@ -7,8 +7,8 @@ from pathlib import Path
 
 import bpy
 
-from ..common.jobs import Job
-from ..common.modal import JobOperator
+from ..bases.jobs import Job
+from ..bases.modal import JobOperator
 from .jobs import TrackPitchJob
 
 

@@ -14,8 +14,8 @@ from mathutils import Matrix
 from ...faces_hands_addon.core.errors import UserError
 from ...faces_hands_addon.tracking import meshes as tm
 from ...faces_hands_addon.tracking.replay import plan_replay
-from ..common.blendfile import save_blend
-from ..common.outputs import atomic_output
+from ..adapters.blendfile import save_blend
+from ..adapters.outputs import atomic_output
 from ..hand import services as hand_services
 from .scene import camera_object, mesh_object, place_camera
 

@@ -10,7 +10,7 @@ import bpy
 import numpy as np
 from mathutils import Matrix
 
-from ..common.render import quiet_stdout, read_png
+from ..adapters.render import quiet_stdout, read_png
 
 __all__ = ["setup_render", "mesh_object", "place_camera", "render_array", "camera_object", "remove_objects",
            "CV_TO_BLENDER", "srgb_to_linear"]

@@ -9,7 +9,7 @@ from pathlib import Path
 import bpy
 
 from ...faces_hands_addon.core.errors import UserError
-from ..common.outputs import atomic_output
+from ..adapters.outputs import atomic_output
 
 __all__ = ["synthesise", "calibrate", "track_to_file", "refuse_inside", "track_video_to_file"]
 
@@ -37,7 +37,7 @@ def calibrate(folder: Path, out: Path, progress) -> str:
 
 def track_to_file(photos: Path, calib: Path, out: Path, report: Path | None, progress):
     from .jobs import TrackPitchJob
-    from ..common.jobs import run_job
+    from ..bases.jobs import run_job
     bpy.ops.wm.read_homefile(use_empty=True)
     job = TrackPitchJob(photos, calib)
     summary = run_job(job, bpy.context, progress)
@@ -53,7 +53,7 @@ def track_to_file(photos: Path, calib: Path, out: Path, report: Path | None, pro
 
 def track_video_to_file(frames: Path, calib: Path, out: Path, progress):
     from .jobs import TrackVideoJob
-    from ..common.jobs import run_job
+    from ..bases.jobs import run_job
     from .replay import save_replay
     bpy.ops.wm.read_homefile(use_empty=True)
     job = TrackVideoJob(frames, calib)

@@ -23,7 +23,7 @@ from ...faces_hands_addon.tracking.glove import glove_layout
 from ...faces_hands_addon.tracking.hand_pose import couple_rotations
 from ...faces_hands_addon.tracking.setup import setup_preset
 from ...faces_hands_addon.tracking.synth import hand_motion, object_points, pitcher_hand, synthetic_pitch, synthetic_rig
-from ..common.render import write_png
+from ..adapters.render import write_png
 from .synth_render import Piece, ball_piece, render_calibration, render_photos, render_video
 
 __all__ = ["write_synthetic_set", "BALL_IN_HAND"]

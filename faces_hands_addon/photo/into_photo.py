@@ -1,0 +1,118 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""A head made from a photo, posed by its face rig, rendered back into that photo (thesis 3.2.5): the rig's
+skin and parts (eyes, teeth, tongue) at a pose, drawn with the photo's camera and illumination over the
+original (:mod:`.composite`).
+
+The eyeballs take their colours from the photo itself: each eyeball vertex the camera sees through the lid
+opening gets the photo's albedo there (so an unmoved eye shows the photo's eye, and a turned one carries its
+iris along); the rest take the photo's iris colour (iris and pupil) or its sclera colour, measured inside the
+eye contours. Teeth and tongue have fixed colours.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..core import geometry
+from .appearance import Lighting, sample_image, srgb_to_linear
+from .composite import Part, composite, render_head
+from .raster import rasterize
+
+__all__ = ["part_colours", "posed_parts", "render_pose", "FIXED_COLOURS"]
+
+FIXED_COLOURS = {"tooth": (0.62, 0.58, 0.50), "gum": (0.42, 0.12, 0.12), "tongue": (0.40, 0.10, 0.10)}
+
+
+def _eye_colours(pixels_linear: np.ndarray, landmarks: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(iris, sclera) linear colours measured in the photo: the iris at the 5 iris points of both eyes, the
+    sclera halfway between each iris centre and the eye corners."""
+    iris = np.vstack([landmarks[468:478, :2]])
+    iris_colour = np.median(sample_image(pixels_linear, iris), axis=0)
+    corners = landmarks[[33, 133, 362, 263], :2]
+    centres = landmarks[[468, 468, 473, 473], :2]
+    sclera = np.median(sample_image(pixels_linear, 0.5 * (corners + centres)), axis=0)
+    return iris_colour, sclera
+
+
+def part_colours(result, pixels_linear: np.ndarray, skin_vertices: np.ndarray, skin_triangles: np.ndarray):
+    """name -> per-vertex linear colours (n, 3) of the rig's parts at rest (module docstring)."""
+    camera = result.shape.cameras[0]
+    lighting = result.appearance[0].lighting
+    iris, sclera = _eye_colours(pixels_linear, result.landmarks[0])
+    parts = result.rig.part_meshes()
+    out = {}
+    for name, part in parts.items():
+        labels = np.asarray(part.labels)[np.asarray(part.face_material, np.int64)]
+        colours = np.zeros((len(part.vertices), 3))
+        for label in set(labels.tolist()):
+            corner_ids = np.unique(part.faces[labels == label])
+            if label == "sclera":
+                colours[corner_ids] = sclera
+            elif label in ("iris", "pupil"):
+                colours[corner_ids] = iris * (0.5 if label == "pupil" else 1.0)
+            else:
+                colours[corner_ids] = FIXED_COLOURS.get(label, (0.5, 0.5, 0.5))
+        if name.startswith("eye"):
+            colours = _seen_from_photo(part.vertices, part.faces, colours, camera, lighting, pixels_linear,
+                                       skin_vertices, skin_triangles)
+        out[name] = colours
+    return out
+
+
+def _seen_from_photo(vertices, faces, colours, camera, lighting: Lighting, pixels_linear, skin_vertices,
+                     skin_triangles):
+    """Colours of the eyeball vertices the camera sees (nearest at their pixel among skin and eyeball,
+    facing it) replaced by the photo's albedo there."""
+    all_vertices = np.vstack([skin_vertices, vertices])
+    all_faces = np.vstack([skin_triangles, faces + len(skin_vertices)])
+    pixels, depth = camera.project(vertices)
+    every, every_depth = camera.project(all_vertices)
+    lo = np.floor(pixels.min(axis=0)).astype(int) - 2
+    hi = np.ceil(pixels.max(axis=0)).astype(int) + 3
+    raster = rasterize(every, all_faces, camera.width, camera.height, every_depth, (lo[0], lo[1], hi[0], hi[1]))
+    ix = np.clip(np.floor(pixels[:, 0]).astype(int) - raster.origin[0], 0, max(raster.depth.shape[1] - 1, 0))
+    iy = np.clip(np.floor(pixels[:, 1]).astype(int) - raster.origin[1], 0, max(raster.depth.shape[0] - 1, 0))
+    normals = geometry.vertex_normals(vertices, faces) @ camera.rotation.T
+    rays = camera.to_camera(vertices)
+    rays /= np.linalg.norm(rays, axis=1, keepdims=True)
+    facing = -(normals * rays).sum(axis=1)
+    if not raster.depth.size:
+        return colours
+    seen = (depth <= raster.depth[iy, ix] * 1.002 + 1e-5) & (facing > 0.1)
+    if seen.any():
+        shade = np.maximum(lighting.shading(normals[seen]), 0.05)
+        colours = colours.copy()
+        colours[seen] = np.clip(sample_image(pixels_linear, pixels[seen]) / shade, 0.0, 1.0)
+    return colours
+
+
+def posed_parts(result, colours: dict, transforms: dict | None = None) -> list[Part]:
+    """The rig's parts as :class:`.composite.Part`, each moved by its 4x4 transform (mesh coordinates)."""
+    out = []
+    for name, part in result.rig.part_meshes().items():
+        vertices = np.asarray(part.vertices, np.float64)
+        if transforms is not None and name in transforms:
+            m = np.asarray(transforms[name], np.float64)
+            vertices = vertices @ m[:3, :3].T + m[:3, 3]
+        out.append(Part(vertices, np.asarray(part.faces, np.int64), colours[name]))
+    return out
+
+
+def render_pose(result, pixels_srgb: np.ndarray, texture_linear: np.ndarray, skin: np.ndarray, parts: list[Part],
+                feather: float | None = None) -> np.ndarray:
+    """The composite (H, W, 3) sRGB of the head with ``skin`` (N, 3) rig-mesh vertices and ``parts``."""
+    camera = result.shape.cameras[0]
+    rendering = render_head(skin, result.mesh.triangles, result.mesh.uvs, texture_linear, camera,
+                            result.appearance[0].lighting, parts)
+    if feather is None:
+        inter_ocular = float(np.linalg.norm(result.landmarks[0][468, :2] - result.landmarks[0][473, :2]))
+        feather = max(2.0, 0.12 * inter_ocular)
+    return composite(pixels_srgb, rendering, feather)
+
+
+def still(result, pixels_srgb: np.ndarray) -> np.ndarray:
+    """The head at rest rendered into its photo."""
+    linear = srgb_to_linear(pixels_srgb)
+    skin = result.mesh.vertices(result.vertices)
+    colours = part_colours(result, linear, skin, result.mesh.triangles)
+    return render_pose(result, pixels_srgb, srgb_to_linear(result.texture.srgb), skin,
+                       posed_parts(result, colours))
