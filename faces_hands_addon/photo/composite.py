@@ -29,11 +29,12 @@ CAVITY = np.array([0.035, 0.012, 0.010])       # linear: the dark red of an open
 
 @dataclass
 class Part:
-    """A mesh drawn with the head: ``vertices`` (n, 3) model coordinates, ``triangles`` and per-vertex
-    linear ``colours`` (n, 3)."""
+    """A mesh drawn with the head: ``vertices`` (n, 3) model coordinates, ``triangles``, per-vertex linear
+    ``colours`` (n, 3), and ``rest`` (n, 3) its vertices where the photo saw them (for a projector)."""
     vertices: np.ndarray
     triangles: np.ndarray
     colours: np.ndarray
+    rest: np.ndarray | None = None
 
 
 @dataclass
@@ -54,8 +55,10 @@ def _texture_sample(texture_linear: np.ndarray, uv: np.ndarray) -> np.ndarray:
 
 def render_head(vertices: np.ndarray, triangles: np.ndarray, uvs: np.ndarray, texture_linear: np.ndarray,
                 camera: Camera, lighting: Lighting, parts: list[Part] = (), mouth_fill: bool = True,
-                margin: int = 4) -> Rendering:
-    """The head (and ``parts``) seen by ``camera`` under ``lighting`` (module docstring)."""
+                margin: int = 4, projector=None, gap_colour=None) -> Rendering:
+    """The head (and ``parts``) seen by ``camera`` under ``lighting`` (module docstring). ``projector(points,
+    normals) -> (albedo, seen)`` colours the part pixels whose rest point (``Part.rest``) the photo saw;
+    ``gap_colour(pixels) -> colours or None`` fills the gaps of an open mouth (default: the cavity's)."""
     meshes = [(np.asarray(vertices, np.float64), np.asarray(triangles, np.int64))]
     meshes += [(np.asarray(p.vertices, np.float64), np.asarray(p.triangles, np.int64)) for p in parts]
     offsets = np.cumsum([0] + [len(v) for v, _ in meshes])
@@ -74,6 +77,8 @@ def render_head(vertices: np.ndarray, triangles: np.ndarray, uvs: np.ndarray, te
     normals = np.vstack([geometry.vertex_normals(v, t) for v, t in meshes]) @ camera.rotation.T
     n = np.einsum("kj,kjc->kc", bary, normals[corners])
     n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
+    rays = np.einsum("kj,kjc->kc", bary, camera.to_camera(all_vertices)[corners])
+    n *= np.where((n * rays).sum(axis=1) > 0, -1.0, 1.0)[:, None]          # two-sided: shade the side seen
     shading = np.maximum(lighting.shading(n), 0.0)
     on_head = tri < len(triangles)
     albedo = np.zeros((len(tri), 3))
@@ -82,6 +87,8 @@ def render_head(vertices: np.ndarray, triangles: np.ndarray, uvs: np.ndarray, te
     if parts:
         colours = np.vstack([np.zeros((offsets[1], 3))] + [np.asarray(p.colours, np.float64) for p in parts])
         albedo[~on_head] = np.einsum("kj,kjc->kc", bary[~on_head], colours[corners[~on_head]])
+        if projector is not None and all(p.rest is not None for p in parts):
+            _project_parts(albedo, ~on_head, bary, corners, meshes, parts, offsets, projector)
     h, w = mask.shape
     colour = np.zeros((h, w, 3))
     colour[mask] = albedo * shading
@@ -91,12 +98,31 @@ def render_head(vertices: np.ndarray, triangles: np.ndarray, uvs: np.ndarray, te
         head_only[mask] = on_head
         gaps = ndimage.binary_fill_holes(head_only) & ~mask
         colour[gaps] = CAVITY * max(float(lighting.shading(np.array([[0.0, 0.0, -1.0]])).mean()), 0.0)
+        if gap_colour is not None and gaps.any():
+            gy, gx = np.nonzero(gaps)
+            filled = gap_colour(np.column_stack([gx + window[0] + 0.5, gy + window[1] + 0.5]))
+            if filled is not None:
+                colour[gaps] = filled
         alpha[gaps] = 1.0
     full = np.zeros((camera.height, camera.width, 3), np.float32)
     full_alpha = np.zeros((camera.height, camera.width), np.float32)
     full[window[1]:window[3], window[0]:window[2]] = linear_to_srgb(colour)
     full_alpha[window[1]:window[3], window[0]:window[2]] = alpha
     return Rendering(full, full_alpha, window)
+
+
+def _project_parts(albedo, on_parts, bary, corners, meshes, parts, offsets, projector) -> None:
+    """Part pixels whose rest point the photo saw take the photo's albedo there (``projector``)."""
+    rest = np.vstack([np.zeros((offsets[1], 3))] + [np.asarray(p.rest, np.float64) for p in parts])
+    rest_normals = np.vstack([np.zeros((offsets[1], 3))]
+                             + [geometry.vertex_normals(np.asarray(p.rest, np.float64), np.asarray(p.triangles))
+                                for p in parts])
+    points = np.einsum("kj,kjc->kc", bary[on_parts], rest[corners[on_parts]])
+    normals = np.einsum("kj,kjc->kc", bary[on_parts], rest_normals[corners[on_parts]])
+    normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
+    photo, seen = projector(points, normals)
+    rows = np.flatnonzero(on_parts)[seen]
+    albedo[rows] = photo[seen]
 
 
 def composite(photo_srgb: np.ndarray, rendering: Rendering, feather: float) -> np.ndarray:

@@ -38,6 +38,7 @@ from .head_model import HeadModel
 
 __all__ = ["View", "FitSettings", "ShapeFit", "fit_views", "initial_pose", "FOCAL_SCAN_35MM"]
 
+HIDDEN_WEIGHT = 0.15
 FOCAL_SCAN_35MM = (20.0, 28.0, 35.0, 50.0, 70.0, 100.0, 140.0, 200.0, 300.0)
 
 
@@ -71,6 +72,7 @@ class FitSettings:
     sigma_edge: float = 0.03
     silhouette: bool = True
     sigma_logf: float = 0.7
+    focal_scan: bool = True
     focal_default_35mm: float = 50.0
     iterations: int = 30
     huber: float = 2.5
@@ -134,6 +136,19 @@ class _Problem:
                        for v in views]
         self.fixed_focal = [v.focal_35mm > 0 for v in views]
         self.silhouette_targets: list = [None] * len(views)
+        self.visibility: list[np.ndarray] = [np.ones(468) for _ in views]
+
+    def update_visibility(self, alpha: np.ndarray, cameras: list[Camera]) -> None:
+        """Landmarks on surface turned away from a view's camera are MediaPipe's guesses: their weight falls to
+        :data:`HIDDEN_WEIGHT` as the surface turns away (facing cosine from 0.15 down to -0.15)."""
+        shape = self.model.shape(alpha)
+        normals = geometry.vertex_normals(shape, self.model.triangles)[self.model.landmarks]
+        points = shape[self.model.landmarks]
+        for index, camera in enumerate(cameras):
+            rays = camera.to_camera(points)
+            rays /= np.linalg.norm(rays, axis=1, keepdims=True)
+            facing = -((normals @ camera.rotation.T) * rays).sum(axis=1)
+            self.visibility[index] = np.clip((facing + 0.15) / 0.3, HIDDEN_WEIGHT, 1.0)
 
     def residuals(self, alpha: np.ndarray, cameras: list[Camera], robust: list[np.ndarray] | None = None,
                   jacobian: bool = True):
@@ -144,7 +159,7 @@ class _Problem:
         width = 7 * n_views + k
         for index, (view, camera) in enumerate(zip(self.views, cameras)):
             iod = max(view.inter_ocular, 1.0)
-            weights = _weights(view)[:468]
+            weights = _weights(view)[:468] * self.visibility[index]
             if robust is not None:
                 weights = weights * robust[index]
             cam = camera.to_camera(points)
@@ -286,12 +301,15 @@ def fit_views(model: HeadModel, views: list[View], settings: FitSettings | None 
     # the focal length: EXIF where known, else the scan's best 35 mm equivalent (each fitted briefly)
     best = None
     unknown = [v.focal_35mm <= 0 for v in views]
-    for candidate in (FOCAL_SCAN_35MM if any(unknown) else (0.0,)):
+    scan = FOCAL_SCAN_35MM if any(unknown) and settings.focal_scan else (settings.focal_default_35mm,)
+    for candidate in scan:
         focal = [v.focal_35mm if v.focal_35mm > 0 else candidate for v in views]
         problem.focal0 = [np.log(focal_from_35mm(f, v.width, v.height)) for f, v in zip(focal, views)]
         problem.fixed_focal = [True] * len(views)
         alpha, cameras = _start(problem, focal)
         alpha, cameras, energy = _gauss_newton(problem, alpha, cameras, 8)
+        energy += sum(((np.log(f) - np.log(settings.focal_default_35mm)) / settings.sigma_logf) ** 2
+                      for f, u in zip(focal, unknown) if u)
         if best is None or energy < best[0]:
             best = (energy, alpha, cameras, focal)
     _, alpha, cameras, focal = best
@@ -300,6 +318,7 @@ def fit_views(model: HeadModel, views: list[View], settings: FitSettings | None 
     problem.fixed_focal = [v.focal_35mm > 0 for v in views]
     if any(unknown):
         notes.append("focal length estimated: " + ", ".join(f"{f:.0f} mm (35 mm equivalent)" for f in focal))
+    problem.update_visibility(alpha, cameras)
     alpha, cameras, energy = _gauss_newton(problem, alpha, cameras, settings.iterations)
     if settings.silhouette and any(v.edges is not None for v in views):
         alpha, cameras, energy = _gauss_newton(problem, alpha, cameras, 6, silhouette_from=0)
@@ -332,7 +351,8 @@ def _correction(problem: _Problem, alpha, cameras) -> np.ndarray:
     rows, cols, vals, rhs = [], [], [], []
     row = 0
     size = float(np.linalg.norm(shape[model.landmarks[454]] - shape[model.landmarks[234]]))
-    for view, camera, robust in zip(problem.views, cameras, _robust(problem, alpha, cameras)):
+    for view, camera, robust, visibility in zip(problem.views, cameras, _robust(problem, alpha, cameras),
+                                                problem.visibility):
         points = shape[model.landmarks]
         cam = camera.to_camera(points)
         z = cam[:, 2]
@@ -341,7 +361,7 @@ def _correction(problem: _Problem, alpha, cameras) -> np.ndarray:
         d_uv[:, 0, 0] = d_uv[:, 1, 1] = camera.focal / z
         d_uv[:, :, 2] = -camera.focal * cam[:, :2] / z[:, None] ** 2
         d_model = d_uv @ camera.rotation                                    # (468, 2, 3)
-        weight = np.sqrt(_weights(view)[:468] * robust) / (s.sigma_2d * max(view.inter_ocular, 1.0))
+        weight = np.sqrt(_weights(view)[:468] * robust * visibility) / (s.sigma_2d * max(view.inter_ocular, 1.0))
         residual = view.points[:468, :2] - uv
         for axis in range(2):
             for c in range(3):

@@ -24,7 +24,8 @@ MESH_LANDMARKS = 468
 class HeadModel:
     """``mean`` (n, 3) metres, ``basis`` (3n, k) orthonormal, ``sd`` (k,) (3.2.1); ``colour_*`` the same for
     linear albedo (or None); ``triangles`` (m, 3); ``uvs`` (n, 2); ``landmarks`` (468,) vertex ids;
-    ``mirror`` (n,) the mirror vertex of each vertex; ``face`` (n,) the face region; ``name`` for reports."""
+    ``mirror`` (n,) the mirror vertex of each vertex; ``face`` (n,) the face region; ``name`` for reports;
+    ``source`` the morphable model itself (its attributes edit a fitted person, 3.2.2-3.2.3)."""
     name: str
     mean: np.ndarray
     basis: np.ndarray
@@ -38,6 +39,7 @@ class HeadModel:
     colour_basis: np.ndarray | None = None
     colour_sd: np.ndarray | None = None
     topology: str = ""
+    source: MorphableModel | None = None
 
     @classmethod
     def from_morphable(cls, model: MorphableModel) -> "HeadModel":
@@ -61,7 +63,7 @@ class HeadModel:
                    np.asarray(model.uvs, np.float64), landmarks, mirror, face,
                    None if colour is None else colour.mean.reshape(-1, 3),
                    None if colour is None else colour.basis, None if colour is None else colour.sd,
-                   str(model.info.get("topology", "")))
+                   str(model.info.get("topology", "")), model)
 
     @property
     def vertex_count(self) -> int:

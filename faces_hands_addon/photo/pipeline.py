@@ -19,6 +19,7 @@ from .appearance import AppearanceFit, fit_appearance, srgb_to_linear
 from .camera import yaw_pitch_roll
 from .fit import FitSettings, ShapeFit, View, fit_views
 from .head_model import HeadModel
+from .silhouette import EdgeMap
 from .texture import Texture, bake_texture, texture_size
 
 __all__ = ["Photo", "PhotoHead", "HeadBuild", "find_landmarks", "head_from_photos", "MIN_INTER_OCULAR", "MAX_YAW", "WARN_YAW"]
@@ -100,7 +101,7 @@ class HeadBuild:
     texture, the rig), for a job with a progress bar and ESC; ``result`` when done."""
 
     def __init__(self, photos: list[Photo], model: HeadModel, settings: FitSettings | None = None,
-                 finder=None, rig: bool = True, seed: int = 0):
+                 finder=None, rig: bool = True, seed: int = 0, edits: list[tuple[str, float]] = ()):
         if not photos:
             raise UserError("no photo given")
         self.photos, self.model, self.settings, self.finder = photos, model, settings, finder
@@ -108,6 +109,7 @@ class HeadBuild:
         self.views: list[View] = []
         self.landmarks: list[np.ndarray] = []
         self.stages = [lambda p=p: self._landmarks(p) for p in photos]
+        self.edits = list(edits)
         self.stages += [self._fit, self._colours, self._texture] + ([self._rig] if rig else [])
         self.done = 0
         self.shape = self.appearance = self.texture = self.result = None
@@ -131,7 +133,9 @@ class HeadBuild:
                 raise UserError(f"{photo.name}: the landmarks must be 478 finite points (got {points.shape})")
         _check_size(points, photo.name)
         h, w = photo.pixels.shape[:2]
-        self.views.append(View(points, w, h, photo.focal_35mm, np.ones(len(points))))
+        settings = self.settings or FitSettings()
+        edges = EdgeMap.of(photo.pixels, points) if settings.silhouette else None
+        self.views.append(View(points, w, h, photo.focal_35mm, np.ones(len(points)), edges))
         self.landmarks.append(points)
         self.label = "fitting the morphable model"
 
@@ -158,17 +162,23 @@ class HeadBuild:
 
     def _texture(self) -> None:
         face_px = float(np.linalg.norm(self.landmarks[0][454, :2] - self.landmarks[0][234, :2]))
+        uvs = self.model.uvs[self.model.landmarks[[454, 234]]]
+        uv_width = float(np.linalg.norm(uvs[0] - uvs[1]))
+        views = [(camera, fit.lighting, image)
+                 for camera, fit, image in zip(self.shape.cameras, self.appearance, self.images)]
         self.texture = bake_texture(self.shape.vertices, self.model.triangles, self.model.uvs, self.model.mirror,
-                                    self.shape.cameras[0], self.appearance[0].lighting, self.images[0],
-                                    self.appearance[0].albedo, texture_size(face_px))
+                                    views, self.appearance[0].albedo, texture_size(face_px, uv_width))
         self.result = PhotoHead(self.model, self.shape, self.appearance, self.landmarks, self.texture, self.notes)
+        if self.edits:
+            from .edit import edited_head
+            self.result = edited_head(self.result, self.edits)
         self.label = "fitting the face rig"
 
     def _rig(self) -> None:
         from ..face.fitted import build_fitted_rig
         from .head_mesh import rig_mesh
         mesh = rig_mesh(self.model)
-        vertices = mesh.vertices(self.shape.vertices)
+        vertices = mesh.vertices(self.result.vertices)
         self.result.mesh = mesh
         self.result.rig = build_fitted_rig(vertices, mesh.triangles, landmarks=vertices[mesh.landmarks],
                                            seed=self.seed)

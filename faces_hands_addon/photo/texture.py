@@ -21,11 +21,11 @@ import numpy as np
 from scipy import ndimage
 
 from ..core import geometry
-from .appearance import Lighting, linear_to_srgb, sample_image
+from .appearance import Lighting, linear_to_srgb, sample_image, srgb_to_linear
 from .camera import Camera
 from .raster import rasterize
 
-__all__ = ["Texture", "bake_texture", "texture_size", "uv_pixels"]
+__all__ = ["Texture", "bake_texture", "scaled_texture", "texture_size", "uv_pixels"]
 
 MIRROR_WEIGHT = 0.85          # a mirrored texel counts slightly less than one seen directly
 FACING_LOW, FACING_HIGH = 0.15, 0.55
@@ -41,10 +41,10 @@ class Texture:
     inside: np.ndarray
 
 
-def texture_size(face_width_px: float, low: int = 256, high: int = 2048) -> int:
-    """A power of two about twice the face's width in the photo (the UV layout spans about half the
-    texture's width), within [low, high]."""
-    size = 2 ** int(np.ceil(np.log2(max(face_width_px, 1.0) * 2.0)))
+def texture_size(face_width_px: float, uv_width: float, low: int = 256, high: int = 2048) -> int:
+    """The power of two nearest to the texels the photo can fill: the face's width in the photo over the
+    width its UVs span (``uv_width``, 0..1), within [low, high]."""
+    size = 2 ** int(np.round(np.log2(max(face_width_px, 1.0) / max(uv_width, 0.05))))
     return int(np.clip(size, low, high))
 
 
@@ -80,10 +80,11 @@ def _photo_albedo(points, normals, camera: Camera, lighting: Lighting, image_lin
 
 
 def bake_texture(vertices: np.ndarray, triangles: np.ndarray, uvs: np.ndarray, mirror: np.ndarray,
-                 camera: Camera, lighting: Lighting, image_linear: np.ndarray, model_albedo: np.ndarray,
+                 views: list[tuple[Camera, Lighting, np.ndarray]], model_albedo: np.ndarray,
                  size: int = 1024) -> Texture:
-    """The head's texture (module docstring). ``vertices`` (n, 3) the fitted head, ``mirror`` (n,) its
-    left/right vertex map, ``model_albedo`` (n, 3) linear."""
+    """The head's texture (module docstring) from ``views`` (camera, illumination, linear photo), the first
+    the main photo. ``vertices`` (n, 3) the fitted head, ``mirror`` (n,) its left/right vertex map,
+    ``model_albedo`` (n, 3) linear."""
     triangles = np.asarray(triangles, np.int64)
     layout = rasterize(uv_pixels(uvs, size), triangles, size, size)
     inside = layout.mask
@@ -96,15 +97,25 @@ def bake_texture(vertices: np.ndarray, triangles: np.ndarray, uvs: np.ndarray, m
         c = corners if map_ is None else map_[corners]
         return np.einsum("kj,kjc->kc", bary, values[c])
 
-    pixels, depth = camera.project(vertices)
-    lo = np.floor(pixels.min(axis=0)).astype(int) - 1
-    hi = np.ceil(pixels.max(axis=0)).astype(int) + 2
-    depth_raster = rasterize(pixels, triangles, camera.width, camera.height, depth, (lo[0], lo[1], hi[0], hi[1]))
-    flip = np.array([-1.0, 1.0, 1.0])
-    own, w_own = _photo_albedo(at(vertices), _unit(at(normals)), camera, lighting, image_linear, depth_raster)
-    mirrored, w_mirror = _photo_albedo(at(vertices, mirror), _unit(at(normals, mirror)), camera, lighting,
-                                       image_linear, depth_raster)
-    w_mirror = MIRROR_WEIGHT * w_mirror * (1.0 - w_own)
+    points, point_normals = at(vertices), _unit(at(normals))
+    mirrored_points, mirrored_normals = at(vertices, mirror), _unit(at(normals, mirror))
+    own_sum, own_weight = np.zeros((len(tri), 3)), np.zeros(len(tri))
+    mirror_sum, mirror_weight = np.zeros((len(tri), 3)), np.zeros(len(tri))
+    for camera, lighting, image in views:
+        pixels, depth = camera.project(vertices)
+        lo = np.floor(pixels.min(axis=0)).astype(int) - 1
+        hi = np.ceil(pixels.max(axis=0)).astype(int) + 2
+        depth_raster = rasterize(pixels, triangles, camera.width, camera.height, depth, (lo[0], lo[1], hi[0], hi[1]))
+        colour, weight = _photo_albedo(points, point_normals, camera, lighting, image, depth_raster)
+        own_sum += colour * weight[:, None]
+        own_weight += weight
+        colour, weight = _photo_albedo(mirrored_points, mirrored_normals, camera, lighting, image, depth_raster)
+        mirror_sum += colour * weight[:, None]
+        mirror_weight += weight
+    own = own_sum / np.maximum(own_weight, 1e-9)[:, None]
+    mirrored = mirror_sum / np.maximum(mirror_weight, 1e-9)[:, None]
+    w_own = np.clip(own_weight, 0.0, 1.0)
+    w_mirror = MIRROR_WEIGHT * np.clip(mirror_weight, 0.0, 1.0) * (1.0 - w_own)
     total = w_own + w_mirror
     photo = (own * w_own[:, None] + mirrored * w_mirror[:, None]) / np.maximum(total, 1e-9)[:, None]
     model = at(np.asarray(model_albedo, np.float64))
@@ -120,6 +131,20 @@ def bake_texture(vertices: np.ndarray, triangles: np.ndarray, uvs: np.ndarray, m
     albedo[inside] = np.clip(blend * photo + (1.0 - blend) * model, 0.0, 1.0)
     albedo = _padded(albedo, inside)
     return Texture(linear_to_srgb(albedo), coverage.astype(np.float32), inside)
+
+
+def scaled_texture(texture: Texture, uvs: np.ndarray, triangles: np.ndarray, ratio: np.ndarray) -> Texture:
+    """``texture`` with its albedo multiplied per texel by the per-vertex ``ratio`` (n, 3) interpolated over
+    the UV layout (a colour edit of the fitted person carried onto the photo's texture)."""
+    size = texture.srgb.shape[0]
+    layout = rasterize(uv_pixels(uvs, size), np.asarray(triangles, np.int64), size, size)
+    inside = layout.mask
+    corners = np.asarray(triangles, np.int64)[layout.triangle[inside]]
+    factor = np.ones((size, size, 3))
+    factor[inside] = np.einsum("kj,kjc->kc", layout.bary[inside].astype(np.float64), ratio[corners])
+    factor = _padded(factor, inside)
+    albedo = srgb_to_linear(texture.srgb) * factor
+    return Texture(linear_to_srgb(np.clip(albedo, 0.0, 1.0)), texture.coverage, texture.inside)
 
 
 def _unit(v: np.ndarray) -> np.ndarray:

@@ -13,9 +13,9 @@ __all__ = ["HeadFromPhotoJob"]
 class HeadFromPhotoJob(Job):
     label = "Head from photo"
 
-    def __init__(self, photos, name: str = "FH Photo Head", model: str = "default"):
+    def __init__(self, photos, name: str = "FH Photo Head", model: str = "default", edits=()):
         self.photos, self.name = photos, name
-        self.build = HeadBuild(photos, services.head_model(model))
+        self.build = HeadBuild(photos, services.head_model(model), edits=list(edits))
         self.head_name = name
         self.warnings = ()
 

@@ -83,6 +83,33 @@ def photo_state(result, names: list[str]) -> dict:
             "notes": list(result.notes)}
 
 
+def _eye_colours(rig_obj, result, photo_pixels, skin, triangles, name: str) -> None:
+    """The eyeballs' colours from the photo (``photo.into_photo.part_colours``) as a colour attribute their
+    own material shows, so the head looks with the person's eyes in Blender and in exported files."""
+    from ...faces_hands_addon.photo.appearance import srgb_to_linear
+    from ...faces_hands_addon.photo.into_photo import part_colours
+    from ..adapters.rig_store import parts
+    colours = part_colours(result, srgb_to_linear(photo_pixels), skin, triangles)
+    material = bpy.data.materials.new(f"{name} Eyes")
+    enable_nodes(material)
+    nodes = material.node_tree.nodes
+    attribute = nodes.new("ShaderNodeVertexColor")
+    attribute.layer_name = "FH Photo"
+    shader = nodes.get("Principled BSDF")
+    if shader is not None:
+        material.node_tree.links.new(attribute.outputs["Color"], shader.inputs["Base Color"])
+        shader.inputs["Roughness"].default_value = 0.15
+    for role, part in parts(rig_obj).items():
+        if role not in ("eye_L", "eye_R") or len(part.data.vertices) != len(colours[role]):
+            continue
+        layer = part.data.color_attributes.new("FH Photo", "FLOAT_COLOR", "POINT")
+        rgba = np.ones((len(colours[role]), 4), np.float32)
+        rgba[:, :3] = colours[role]
+        layer.data.foreach_set("color", rgba.ravel())
+        part.data.materials.clear()
+        part.data.materials.append(material)
+
+
 def head_objects(context, result, photo_pixels: np.ndarray, names: list[str], name: str = "FH Photo Head"):
     """Blender objects of an engine result (module docstring); returns the head (rig) object."""
     mesh_map = result.mesh
@@ -95,16 +122,18 @@ def head_objects(context, result, photo_pixels: np.ndarray, names: list[str], na
     head = bpy.data.objects.new(name, mesh)
     from ..face.services import attach_fitted_rig
     rig_obj = attach_fitted_rig(context, head, result.rig, np.eye(4), name)
+    _eye_colours(rig_obj, result, photo_pixels, vertices, mesh_map.triangles, name)
     photo = image_from_pixels(f"{name} Photo", photo_pixels)
     photo_camera(context, result.shape.cameras[0], photo, f"{name} Camera")
     rig_obj[PHOTO_HEAD] = json.dumps(photo_state(result, names), sort_keys=True)
     return rig_obj
 
 
-def build_head(context, photos, name: str = "FH Photo Head", model: str = "default", progress=None):
-    """Run the whole build (a job straight through); returns the head object and the engine's result."""
+def build_head(context, photos, name: str = "FH Photo Head", model: str = "default", progress=None, edits=()):
+    """Run the whole build (a job straight through); returns the head object and the engine's result.
+    ``edits``: (attribute, value) pairs applied to the fitted person (``photo.edit``) before the rig."""
     from .jobs import HeadFromPhotoJob
-    job = HeadFromPhotoJob(photos, name, model)
+    job = HeadFromPhotoJob(photos, name, model, edits)
     print(run_job(job, context, progress))
     for warning in job.warnings:
         print(f"note: {warning}")
