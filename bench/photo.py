@@ -187,12 +187,15 @@ def sheet(row: dict, pixels: np.ndarray, path: Path) -> None:
     texture = srgb_to_linear(result.texture.srgb)
     skin = result.mesh.vertices(result.vertices)
     lighting = result.appearance[0].lighting
-    front = render_head(skin, result.mesh.triangles, result.mesh.uvs, texture, camera, lighting, mouth_fill=False)
+    from faces_hands_addon.photo.into_photo import label_colours, posed_parts
+    parts = posed_parts(result, label_colours(result, srgb_to_linear(pixels)))
+    front = render_head(skin, result.mesh.triangles, result.mesh.uvs, texture, camera, lighting, parts,
+                        mouth_fill=False)
     centre = camera.to_camera(result.vertices.mean(axis=0)[None])[0]
     turn = rotation(np.radians([0.0, 70.0, 0.0]))
     side_camera = Camera(camera.width, camera.height, camera.focal, turn @ camera.rotation,
                          turn @ (camera.translation - centre) + centre)
-    side = render_head(skin, result.mesh.triangles, result.mesh.uvs, texture, side_camera, lighting,
+    side = render_head(skin, result.mesh.triangles, result.mesh.uvs, texture, side_camera, lighting, parts,
                        mouth_fill=False)
     grey = np.full_like(pixels, 0.3)
     panels = [pixels, front.colour * front.alpha[..., None] + grey * (1 - front.alpha[..., None]),

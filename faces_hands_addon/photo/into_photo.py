@@ -24,9 +24,9 @@ FIXED_COLOURS = {"tooth": (0.62, 0.58, 0.50), "gum": (0.42, 0.12, 0.12), "tongue
 
 
 def _eye_colours(pixels_linear: np.ndarray, landmarks: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(iris, sclera) linear colours measured in the photo: the iris at the 5 iris points of both eyes, the
-    sclera halfway between each iris centre and the eye corners."""
-    iris = np.vstack([landmarks[468:478, :2]])
+    """(iris, sclera) linear colours measured in the photo: the iris halfway between each iris centre and its
+    ring points, the sclera halfway between each iris centre and the eye corners."""
+    iris = np.vstack([0.5 * (landmarks[start, :2] + landmarks[start + 1:start + 5, :2]) for start in (468, 473)])
     iris_colour = np.median(sample_image(pixels_linear, iris), axis=0)
     corners = landmarks[[33, 133, 362, 263], :2]
     centres = landmarks[[468, 468, 473, 473], :2]

@@ -19,6 +19,7 @@ import numpy as np
 from scipy import ndimage
 
 from ..core import geometry
+from ..core.refine import boundary_loops
 from .camera import Camera, skew
 
 __all__ = ["EdgeMap", "contour_targets", "edge_residuals", "GRAZING", "SEARCH"]
@@ -74,7 +75,9 @@ def contour_targets(problem, index: int, camera: Camera, alpha: np.ndarray):
     rays = camera.to_camera(shape)
     rays /= np.linalg.norm(rays, axis=1, keepdims=True)
     cosine = -((normals @ camera.rotation.T) * rays).sum(axis=1)
-    border = geometry.boundary_edge_flags(model.triangles, model.vertex_count)
+    border = np.zeros(model.vertex_count, bool)
+    for loop in boundary_loops(model.triangles):
+        border[loop] = True
     ids = np.flatnonzero((np.abs(cosine) < GRAZING) & (cosine > -0.05) & ~border & model.face)
     if not len(ids):
         return None

@@ -43,11 +43,11 @@ def _contour_edges() -> np.ndarray:
 
 def default_points(model, width: int, height: int) -> np.ndarray:
     """(478, 3) landmarks of the model's average face looking at the camera, in the middle of the picture,
-    about a third of its width wide (a start for placing them by hand)."""
+    almost half its width wide (a start for placing them by hand)."""
     focal = focal_from_35mm(50.0, width, height)
     mean = model.mean[model.landmarks]
     face_width = float(np.linalg.norm(mean[454] - mean[234]))
-    distance = focal * face_width / (0.35 * min(width, height))
+    distance = focal * face_width / (0.45 * min(width, height))
     camera = Camera(width, height, focal, FRONT.copy(), np.array([0.0, 0.0, distance]) - FRONT @ mean.mean(axis=0))
     pixels, depth = camera.project(mean)
     points = np.zeros((478, 3))

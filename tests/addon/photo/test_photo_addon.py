@@ -228,3 +228,28 @@ def test_grey_deep_cmyk_alpha_and_turned_photos_are_honoured(installed, bpy_clea
     points, _ = find_landmarks(addon_module("operators.photo.images").load_photo(grey)[0])
     reference, _ = find_landmarks(astronaut)
     assert np.median(np.linalg.norm(points[:, :2] - reference[:, :2], axis=1)) < 2.0
+
+
+def test_landmarks_dragged_over_the_photo_make_the_head(installed, bpy_clean, tmp_path):
+    """The thesis' tool (3.2.5: the user clicks feature points): a photo where no face is detected gets the
+    average face's landmarks as points over it; a dragged point reads back where it was put, in pixels; the
+    head is fitted to the points as they are."""
+    bpy = bpy_clean
+    rng = np.random.default_rng(1)
+    photo = _save(bpy, rng.uniform(0.3, 0.7, (600, 500, 3)).astype(np.float32), tmp_path / "no_face.png")
+    assert bpy.ops.faces_hands.photo_edit_landmarks(filepath=str(photo)) == {"FINISHED"}
+    points_obj = bpy.context.active_object
+    module = addon_module("operators.photo.landmark_points")
+    before, record = module.landmarks_of(points_obj)
+    assert before.shape == (478, 3) and (record["width"], record["height"]) == (500, 600)
+    assert bpy.context.scene.camera is not None and bpy.context.scene.camera.data.background_images[0].image
+    vertex = points_obj.data.vertices[1]                         # the nose tip, 12 px right and 7 px down
+    vertex.co.x += 0.012
+    vertex.co.z -= 0.007
+    after, _ = module.landmarks_of(points_obj)
+    assert np.allclose(after[1, :2] - before[1, :2], [12.0, 7.0], atol=1e-3)
+    assert np.allclose(np.delete(after, 1, axis=0), np.delete(before, 1, axis=0))
+    assert bpy.ops.faces_hands.photo_head_from_landmarks() == {"FINISHED"}
+    names = addon_module("names")
+    heads = [o for o in bpy.data.objects if o.get(names.PHOTO_HEAD)]
+    assert len(heads) == 1 and heads[0].get(names.RIG_MARKER)
