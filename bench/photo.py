@@ -103,12 +103,12 @@ def _truth_in_camera(head: dict, truth: dict, key: str = "vertices") -> np.ndarr
     return (head[key] - np.asarray(truth["centre"])) @ frame.T + np.asarray(truth["translation"])
 
 
-def run_view(png: Path, head: dict | None, truth: dict | None, services, images) -> dict:
+def run_view(png: Path, head: dict | None, truth: dict | None, jobs_module, images) -> dict:
     import bpy
     bpy.ops.wm.read_homefile(use_empty=True)
     started = time.perf_counter()
     photo, _ = images.load_photo(png)
-    obj, result = services.build_head(bpy.context, [photo], "FH Photo Head")
+    obj, result = jobs_module.build_head(bpy.context, [photo], "FH Photo Head")
     took = time.perf_counter() - started
     camera = result.shape.cameras[0]
     model = result.model
@@ -225,7 +225,7 @@ def main() -> None:
                         help="also run ./fh photo-head on a 40-megapixel JPEG in a child process (its peak RSS)")
     args = parser.parse_args()
     args.cache.mkdir(parents=True, exist_ok=True)
-    services = _harness.addon_module("operators.photo.services")
+    services = _harness.addon_module("operators.photo.jobs")
     images = _harness.addon_module("operators.photo.images")
     from faces_hands_addon.morph.population import default_model
     model = default_model()

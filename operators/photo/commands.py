@@ -62,7 +62,7 @@ class PhotoHead:
         edits = [parse_edit(text) for text in args.edits]
         photos = _photos(args)
         bpy.ops.wm.read_homefile(use_empty=True)
-        from .services import build_head
+        from .jobs import build_head
         head, result = build_head(bpy.context, photos, args.name, args.model, progress, edits)
         outputs = [out]
         if args.composite:

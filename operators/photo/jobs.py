@@ -4,10 +4,12 @@ engine's :class:`...faces_hands_addon.photo.pipeline.HeadBuild`), Blender object
 from __future__ import annotations
 
 from ...faces_hands_addon.photo.pipeline import HeadBuild
-from ..bases.jobs import Job
+import bpy
+
+from ..bases.jobs import Job, run_job
 from . import services
 
-__all__ = ["HeadFromPhotoJob"]
+__all__ = ["HeadFromPhotoJob", "build_head"]
 
 
 class HeadFromPhotoJob(Job):
@@ -38,3 +40,13 @@ class HeadFromPhotoJob(Job):
                 f"{result.texture.srgb.shape[1]} px, focal {camera.focal:.0f} px, landmark residual "
                 f"{float(sum(result.shape.residuals[0]) / len(result.shape.residuals[0])):.2f} px; the face rig "
                 "is fitted (Speak Text and Lip Sync work on it)")
+
+
+def build_head(context, photos, name: str = "FH Photo Head", model: str = "default", progress=None, edits=()):
+    """Run the whole build (a job straight through); returns the head object and the engine's result.
+    ``edits``: (attribute, value) pairs applied to the fitted person (``photo.edit``) before the rig."""
+    job = HeadFromPhotoJob(photos, name, model, edits)
+    print(run_job(job, context, progress))
+    for warning in job.warnings:
+        print(f"note: {warning}")
+    return bpy.data.objects[job.head_name], job.build.result

@@ -17,10 +17,9 @@ from ...faces_hands_addon.photo.head_model import HeadModel
 from ...names import PHOTO_CAMERA, PHOTO_HEAD
 from ..adapters.materials import enable_nodes
 from ..adapters.meshes import mesh_from_arrays
-from ..bases.jobs import run_job
 from .images import image_from_pixels
 
-__all__ = ["head_model", "head_objects", "photo_camera", "photo_state", "build_head"]
+__all__ = ["head_model", "head_objects", "photo_camera", "photo_state"]
 
 _models: dict[str, HeadModel] = {}
 
@@ -127,14 +126,3 @@ def head_objects(context, result, photo_pixels: np.ndarray, names: list[str], na
     photo_camera(context, result.shape.cameras[0], photo, f"{name} Camera")
     rig_obj[PHOTO_HEAD] = json.dumps(photo_state(result, names), sort_keys=True)
     return rig_obj
-
-
-def build_head(context, photos, name: str = "FH Photo Head", model: str = "default", progress=None, edits=()):
-    """Run the whole build (a job straight through); returns the head object and the engine's result.
-    ``edits``: (attribute, value) pairs applied to the fitted person (``photo.edit``) before the rig."""
-    from .jobs import HeadFromPhotoJob
-    job = HeadFromPhotoJob(photos, name, model, edits)
-    print(run_job(job, context, progress))
-    for warning in job.warnings:
-        print(f"note: {warning}")
-    return bpy.data.objects[job.head_name], job.build.result

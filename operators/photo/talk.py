@@ -12,7 +12,7 @@ import bpy
 
 from ..adapters.outputs import atomic_output
 from .images import write_picture
-from .services import build_head
+from .jobs import build_head
 
 __all__ = ["talking_photo"]
 
