@@ -8,7 +8,8 @@ from __future__ import annotations
 __all__ = ["RIG_MARKER", "RIG_DATA", "RIG_KIND", "RIG_ID", "RIG_CONTROLS", "RIG_WARNINGS", "OUTPUT_TO_LOCAL",
            "PART_ROLE", "TAKE", "TAKE_STAMP", "TAKE_LAYERS", "MOUTH_CUES", "MORPH_MARKER", "MORPH_MODEL",
            "MORPH_STATE", "MORPH_EXAMPLES", "MORPH_HISTORY", "HAND_PHOTO", "PHOTO_POINT", "PHOTO_IMAGE",
-           "PHOTO_IMAGE_SIZE", "PHOTO_RULER_MM", "CONTROL_PREFIX", "control_property", "layer_prefix"]
+           "PHOTO_IMAGE_SIZE", "PHOTO_RULER_MM", "PHOTO_HEAD", "PHOTO_LANDMARKS", "PHOTO_CAMERA", "CONTROL_PREFIX",
+           "control_property", "layer_prefix"]
 
 # -- a rig object (any kind) and its parts
 RIG_MARKER = "fh_rig"                   # 1 on the object that carries a rig
@@ -39,6 +40,11 @@ PHOTO_POINT = "fh_photo_point"
 PHOTO_IMAGE = "fh_image"
 PHOTO_IMAGE_SIZE = "fh_image_size"
 PHOTO_RULER_MM = "fh_ruler_mm"
+
+# -- a head made from a photograph (thesis 3.2.4) and its landmarks
+PHOTO_HEAD = "fh_photo_head"            # JSON on the head: photo file(s), cameras, illumination, fit report
+PHOTO_LANDMARKS = "fh_photo_landmarks"  # JSON on a landmark-point mesh: the photo it belongs to, its size
+PHOTO_CAMERA = "fh_photo_camera"        # 1 on the camera that sees the photo (its background image)
 
 # -- rig controls: one animatable property per control and layer
 CONTROL_PREFIX = "fh"

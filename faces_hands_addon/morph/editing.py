@@ -213,6 +213,15 @@ class EditFace:
             alpha = scale * model.shape.sd * rng.standard_normal(model.shape.components)
             beta = None if beta0 is None else scale * model.colour.sd * rng.standard_normal(model.colour.components)
             self._reset(alpha, beta)
+        elif kind == "coefficients":                # a face fitted elsewhere (a photograph, 3.2.4)
+            alpha = np.asarray(op["shape"], np.float64)
+            if alpha.shape != (model.shape.components,) or not np.isfinite(alpha).all():
+                raise UserError(f"the face's coefficients do not fit model {model.name!r}")
+            beta = op.get("colour")
+            beta = beta0 if beta is None or beta0 is None else np.asarray(beta, np.float64)
+            if beta is not None and (beta.shape != beta0.shape or not np.isfinite(beta).all()):
+                raise UserError(f"the face's colour coefficients do not fit model {model.name!r}")
+            self._reset(alpha, beta)
         elif kind == "example":
             index = int(op["index"])
             alpha = model.example_coefficients(index, "shape")
@@ -221,7 +230,7 @@ class EditFace:
             beta = model.example_coefficients(index, "colour")
             self._reset(alpha, beta if beta is not None else beta0)
         else:
-            raise UserError(f"unknown face {kind!r}; use average, random or example")
+            raise UserError(f"unknown face {kind!r}; use average, random, example or coefficients")
 
     def set_attribute(self, name: str, value: float, part: str = "shape", segments=()) -> None:
         """Set the slider of attribute ``name`` (shape or colour) to ``value`` (5.1.4)."""
@@ -421,7 +430,7 @@ def describe(op: dict) -> str:
     kind = op.get("op")
     if kind == "create":
         return {"average": "average face", "random": f"random face (seed {op['seed']})",
-                "example": f"example {op['index']}"}.get(op["kind"], op["kind"])
+                "example": f"example {op['index']}", "coefficients": "fitted face"}.get(op["kind"], op["kind"])
     if kind == "attribute" and "target" in op:
         return f"{op['name']} ({op['part']}) set to {op['target']:+.2f} (slider {op['value']:+.2f}){where}"
     if kind == "attribute":

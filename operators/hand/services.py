@@ -23,7 +23,7 @@ from .jobs import BakeHandJob, BuildHandJob, write_indexed_curves
 from .objects import EXPORT_ROLES, armature_of, pose_bone_rotations
 
 __all__ = ["KIND", "build_hand_object", "hand_object", "apply_pose", "animate", "bake", "export", "solve",
-           "retarget", "read_photo", "run_demo"]
+           "retarget", "read_photo", "run_demo", "add_hand_object", "key_joint_angles"]
 
 KIND = "hand"
 
@@ -216,3 +216,32 @@ def run_demo(out_dir, progress, motion_name: str = "showcase") -> list:
     save_blend(blend)
     outputs.append(blend)
     return outputs
+
+
+def add_hand_object(context, rig, name: str = "FH Hand"):
+    """A hand rig object for ``rig`` in the current file (the rig object: its skin; :func:`.objects.create_hand_objects`)
+    without clearing the scene; for other subsystems (the pitch replay)."""
+    from .objects import create_hand_objects
+    return create_hand_objects(context, rig, name)
+
+
+def key_joint_angles(obj, rig, frames, angles, action_name: str = "FH Hand Motion") -> None:
+    """Key the armature of hand rig object ``obj`` at ``frames`` with the joint ``angles`` ((K, DOFs) radians,
+    the rig's DOF order): bone rotations as the engine's forward kinematics gives them."""
+    from ...faces_hands_addon.hand import bake as hand_bake
+    from .objects import EULER_ORDER, rest_bone_matrices
+    arm = armature_of(obj)
+    names = rig.skeleton.names
+    rest = rest_bone_matrices(arm, names)
+    eulers = np.zeros((len(frames), len(names), 3))
+    for f, a in enumerate(angles):
+        basis = hand_bake.bone_basis(rest, rig.skeleton.parent, rig.transforms(np.asarray(a, np.float64)))
+        for b in range(len(names)):
+            eulers[f, b] = Matrix(basis[b].tolist()).to_euler(EULER_ORDER)[:]
+    curves = {}
+    frames = np.asarray(frames, np.float64)
+    for b, name in enumerate(names):
+        arm.pose.bones[name].rotation_mode = EULER_ORDER
+        for axis in range(3):
+            curves[(f'pose.bones["{name}"].rotation_euler', axis)] = (frames, eulers[:, b, axis])
+    write_indexed_curves(arm, curves, action_name)

@@ -1,0 +1,130 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Image operations of the tracking pipeline (thesis 6.3.2-6.3.3), numpy/scipy only: distortion correction,
+background subtraction on the black studio, colour classes, connected regions above a minimum size and their
+centroids, sub-pixel silhouette boundaries.
+
+Images are float arrays (H, W, 3) in [0, 1], rows top to bottom; pixel centres at +0.5 as in
+:mod:`.camera`.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+
+from .camera import Camera
+
+__all__ = ["undistort_image", "foreground_threshold", "hsv", "Region", "regions", "colour_masks",
+           "radial_edges", "COLOURS"]
+
+#: colour classes (6.3.2: "a color interval for each marker type"): hue centre (degrees), minimum saturation,
+#: minimum value; "black" is dark pixels inside a lit ball
+COLOURS = {
+    "red": (0.0, 0.55, 0.25), "green": (120.0, 0.55, 0.2), "blue": (240.0, 0.55, 0.2),
+    "yellow": (60.0, 0.55, 0.3), "cyan": (180.0, 0.55, 0.3), "magenta": (300.0, 0.55, 0.3),
+    "orange": (30.0, 0.55, 0.3),
+}
+HUE_HALF_WIDTH = 14.0
+
+
+def undistort_image(image: np.ndarray, camera: Camera) -> np.ndarray:
+    """The distortion-corrected photo (6.3.1): same size and K, each output pixel sampled (bilinear) where
+    the lens put it."""
+    h, w = image.shape[:2]
+    v, u = np.mgrid[0:h, 0:w].astype(np.float64) + 0.5
+    xy = np.stack([(u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy], axis=-1)
+    d = camera.distort_normalised(xy)
+    su, sv = d[..., 0] * camera.fx + camera.cx - 0.5, d[..., 1] * camera.fy + camera.cy - 0.5
+    out = np.empty_like(image, dtype=np.float32)
+    for c in range(image.shape[2]):
+        out[..., c] = ndimage.map_coordinates(image[..., c], [sv, su], order=1, mode="constant", cval=0.0)
+    return out
+
+
+def foreground_threshold(value: np.ndarray) -> float:
+    """Brightness above which a pixel is foreground on the black studio (6.3.1: floor and walls in black
+    cloth): Otsu's threshold of the value histogram, never below the background noise (median + 6 MAD)."""
+    hist, edges = np.histogram(value, bins=256, range=(0.0, 1.0))
+    p = hist / max(hist.sum(), 1)
+    omega, mu = np.cumsum(p), np.cumsum(p * np.arange(256))
+    between = (mu[-1] * omega - mu) ** 2 / np.maximum(omega * (1 - omega), 1e-12)
+    otsu = float(edges[int(np.argmax(between)) + 1])
+    median = float(np.median(value))
+    noise = median + 6.0 * 1.4826 * float(np.median(np.abs(value - median)))
+    return max(otsu, noise, 0.08)
+
+
+def hsv(image: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Hue (degrees), saturation and value of an RGB image."""
+    r, g, b = image[..., 0], image[..., 1], image[..., 2]
+    value = np.max(image[..., :3], axis=-1)
+    low = np.min(image[..., :3], axis=-1)
+    chroma = value - low
+    saturation = np.where(value > 0, chroma / np.maximum(value, 1e-12), 0.0)
+    safe = np.maximum(chroma, 1e-12)
+    hue = np.where(value == r, ((g - b) / safe) % 6.0, np.where(value == g, (b - r) / safe + 2.0, (r - g) / safe + 4.0))
+    return np.where(chroma > 0, hue * 60.0, 0.0), saturation, value
+
+
+def colour_masks(image: np.ndarray, names) -> dict[str, np.ndarray]:
+    """One boolean mask per named colour class of :data:`COLOURS`."""
+    hue, sat, val = hsv(image)
+    out = {}
+    for name in names:
+        centre, min_sat, min_val = COLOURS[name]
+        distance = np.abs((hue - centre + 180.0) % 360.0 - 180.0)
+        out[name] = (distance < HUE_HALF_WIDTH) & (sat >= min_sat) & (val >= min_val)
+    return out
+
+
+@dataclass
+class Region:
+    """A connected image region: centroid (x, y pixels), area (pixels), bounding slices, its mask."""
+    centroid: np.ndarray
+    area: int
+    box: tuple
+    mask: np.ndarray
+
+
+def regions(mask: np.ndarray, min_area: int, weights: np.ndarray | None = None) -> list[Region]:
+    """Connected regions (8-neighbourhood) of ``mask`` with at least ``min_area`` pixels; centroid = centre of
+    gravity (weighted by ``weights`` if given), 6.3.2."""
+    labels, count = ndimage.label(mask, structure=np.ones((3, 3)))
+    out = []
+    for index, box in enumerate(ndimage.find_objects(labels), start=1):
+        if box is None:
+            continue
+        local = labels[box] == index
+        area = int(local.sum())
+        if area < min_area:
+            continue
+        rows, cols = np.nonzero(local)
+        w = np.ones(area) if weights is None else weights[box][local]
+        w = w / max(w.sum(), 1e-12)
+        centroid = np.array([np.sum((cols + box[1].start + 0.5) * w), np.sum((rows + box[0].start + 0.5) * w)])
+        out.append(Region(centroid, area, box, local))
+    return out
+
+
+def radial_edges(value: np.ndarray, centre: np.ndarray, radius: float, level: float, count: int = 120,
+                 reach: float = 1.6) -> np.ndarray:
+    """Sub-pixel silhouette boundary: along ``count`` rays from ``centre`` the outermost place where the
+    (bilinear) brightness falls through ``level``, searched out to ``reach * radius``. (K, 2) points."""
+    angles = np.linspace(0.0, 2 * np.pi, count, endpoint=False)
+    steps = np.arange(0.0, reach * radius, 0.25)
+    directions = np.column_stack([np.cos(angles), np.sin(angles)])
+    xy = centre[None, None, :] + steps[None, :, None] * directions[:, None, :]
+    samples = ndimage.map_coordinates(value, [xy[..., 1].ravel() - 0.5, xy[..., 0].ravel() - 0.5], order=1,
+                                      mode="constant").reshape(count, len(steps))
+    above = samples >= level
+    out = []
+    for k in range(count):
+        inside = np.flatnonzero(above[k])
+        if len(inside) == 0 or inside[-1] + 1 >= len(steps):
+            continue
+        i = inside[-1]
+        a, b = samples[k, i], samples[k, i + 1]
+        s = steps[i] + (a - level) / max(a - b, 1e-12) * (steps[i + 1] - steps[i])
+        out.append(centre + s * directions[k])
+    return np.array(out).reshape(-1, 2)
