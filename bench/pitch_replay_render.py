@@ -54,7 +54,7 @@ def main() -> None:
     if hand is not None:
         hand_frames = sorted({int(k.co[0]) for c in hand.animation_data.action.fcurves for k in c.keyframe_points}) \
             if hasattr(hand.animation_data.action, "fcurves") else [scene.frame_start]
-        for k, frame in enumerate(np.linspace(scene.frame_start, scene.frame_start + 60, 3).astype(int)):
+        for k, frame in enumerate(np.linspace(scene.frame_start, scene.frame_start + 30, 3).astype(int)):
             scene.frame_set(int(frame))
             root = np.array(hand.matrix_world.translation)
             close = camera(f"FH Look Hand {k}", tuple(root + np.array([0.35, -0.45, 0.2])), tuple(root), 50.0)
