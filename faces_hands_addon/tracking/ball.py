@@ -10,9 +10,11 @@ with that known radius (a 2D search over centres only, [Bal81]) on the boundary 
 centre refines each centre, which survives a partial silhouette (the back pair's side-lit half-moons, Fig.
 6.29); stereo of the circle centres gives the final 3D positions.
 
-Beyond the thesis: the boundary is found to sub-pixel precision (the half-brightness crossing along rays),
-and the Hough winner is polished by a least-squares circle of the same radius through the boundary points
-that voted for it. Two balls whose silhouettes merged (overlapping exposures) are split by taking the two best
+Beyond the thesis: a silhouette that is a whole disc of the predicted size whose edges do not lie on one
+circle keeps its ellipse centre (a lamp beside the camera darkens the limb gradually, which moves a circle
+found on edges more than the ellipse); otherwise the boundary is found to sub-pixel precision along rays (the steepest fall nearest
+the predicted radius, placed half way down it), and the Hough winner is polished by a least-squares circle of
+the same radius through the boundary points that voted for it. Two balls whose silhouettes merged (overlapping exposures) are split by taking the two best
 Hough circles of the region.
 """
 from __future__ import annotations
@@ -27,7 +29,7 @@ from .camera import Camera
 from .images import foreground_threshold, radial_edges, regions
 
 __all__ = ["Silhouette", "find_silhouettes", "fit_ellipse", "hough_centre", "refine_centre", "BallDetections",
-           "split_merged", "predicted_radius"]
+           "split_merged", "predicted_radius", "neighbour_radius", "bright_level"]
 
 
 @dataclass
@@ -99,12 +101,18 @@ def find_silhouettes(image: np.ndarray, min_area: int) -> BallDetections:
         if not np.all(np.isfinite(axes)):
             continue
         out.silhouettes.append(Silhouette(centre, axes, hull, region.area, region=region))
-    areas = np.array([s.area for s in out.silhouettes])
-    if len(areas) >= 3:
-        typical = float(np.median(areas))
-        for s in out.silhouettes:
-            s.merged = s.area > 1.45 * typical and s.axes[0] > 1.5 * s.axes[1]
+    for s in out.silhouettes:                 # against its neighbours: the balls shrink along the flight
+        typical = _neighbour_median(out.silhouettes, s, lambda item: item.area)
+        s.merged = typical is not None and s.area > 1.45 * typical and s.axes[0] > 1.5 * s.axes[1]
     return out
+
+
+def _neighbour_median(silhouettes: list, s, value, count: int = 4) -> float | None:
+    others = [o for o in silhouettes if o is not s]
+    if len(others) < 2:
+        return None
+    others.sort(key=lambda o: float(np.linalg.norm(o.centre - s.centre)))
+    return float(np.median([value(o) for o in others[:count]]))
 
 
 def hough_centre(points: np.ndarray, radius: float, near: np.ndarray, search: float, cell: float = 0.25,
@@ -173,8 +181,9 @@ def refine_centre(camera: Camera, image_value: np.ndarray, silhouette: Silhouett
     distance = float(np.linalg.norm(ray))
     radius = f * np.tan(np.arcsin(min(ball_radius / distance, 0.99)))
     image_radius = predicted_radius(camera, approximate, ball_radius)
+    whole = silhouette.axes[0] < 1.12 * silhouette.axes[1] and abs(silhouette.axes.mean() / image_radius - 1) < 0.12
     reach = 1.0 + max(silhouette.axes[0] / image_radius, 1.0)
-    edges = radial_edges(image_value, silhouette.centre, image_radius, level, count=180, reach=reach)
+    edges = radial_edges(image_value, silhouette.centre, image_radius, level, count=180, reach=reach, nearest=True)
     if len(edges) < 8:
         return silhouette.centre
     turn = _virtual_rotation(ray)
@@ -188,6 +197,9 @@ def refine_centre(camera: Camera, image_value: np.ndarray, silhouette: Silhouett
     start = to_virtual(silhouette.centre[None])[0]
     search = max(radius, silhouette.axes[0]) * 1.2
     centre = _polish(virtual, radius, hough_centre(virtual, radius, start, search)[0])
+    d = np.abs(np.linalg.norm(virtual - centre, axis=1) - radius)
+    if whole and float(np.sqrt(np.mean(d[d < 1.0] ** 2))) > 0.3:
+        return silhouette.centre          # a whole disc with a soft limb: its ellipse is the better outline
     d = turn.T @ np.array([centre[0] / f, centre[1] / f, 1.0])
     return np.array([camera.fx * d[0] / d[2] + camera.cx, camera.fy * d[1] / d[2] + camera.cy])
 
@@ -196,7 +208,7 @@ def split_merged(image_value: np.ndarray, silhouette: Silhouette, radius: float,
     """Two balls whose silhouettes merged (two exposures overlapping): the two best circles of the typical
     image ``radius`` in the region, each a silhouette of its own."""
     reach = 1.0 + silhouette.axes[0] / radius
-    edges = radial_edges(image_value, silhouette.centre, radius, level, count=240, reach=reach)
+    edges = radial_edges(image_value, silhouette.centre, radius, level, count=240, reach=reach, nearest=True)
     centres = [_polish(edges, radius, c) for c in
                hough_centre(edges, radius, silhouette.centre, silhouette.axes[0] * 1.2, peaks=2)]
     support = [np.mean(np.abs(np.linalg.norm(edges - c, axis=1) - radius) < 1.0) for c in centres]
@@ -205,6 +217,18 @@ def split_merged(image_value: np.ndarray, silhouette: Silhouette, radius: float,
         return [silhouette]
     return [Silhouette(c, np.array([radius, radius]), silhouette.boundary, silhouette.area // 2, merged=True,
                        region=silhouette.region) for c in centres]
+
+
+def neighbour_radius(silhouettes: list, s) -> float | None:
+    """The typical image radius (semi-minor axis) of the silhouettes near ``s``."""
+    return _neighbour_median(silhouettes, s, lambda item: item.axes[1])
+
+
+def bright_level(value: np.ndarray, s: Silhouette) -> float:
+    """Half the brightness of the ball's lit part: the level at which its outline is found."""
+    region = s.region
+    pixels = value[region.box][region.mask]
+    return 0.5 * float(np.percentile(pixels, 90)) if pixels.size else 0.5
 
 
 def predicted_radius(camera: Camera, point: np.ndarray, ball_radius: float) -> float:

@@ -25,12 +25,13 @@ __all__ = ["PHOTOS_FORMAT", "object_centres", "identify_spheres", "calibrate_set
 PHOTOS_FORMAT = register_format(PresetFormat(
     "faces_hands.pitch_calibration_photos", 1, required=("board", "objects", "pairs", "strobes"),
     shape={"board": {"inner": [NUMBER], "square": NUMBER}, "objects": {str: ANY}, "pairs": {str: [str]},
-           "strobes": {str: ANY}, "plate_direction": [NUMBER], "hand": ANY, "single": [str]}))
+           "strobes": {str: ANY}, "plate_direction": [NUMBER], "hand": ANY, "single": [str],
+           "sphere_radius": NUMBER}))
 
 
-def object_centres(image: np.ndarray, colours: list[str]) -> dict[str, list[np.ndarray]]:
-    """Colour -> centres of the regions of that colour (``white``: bright and unsaturated), largest first, as
-    many as the object has spheres of the colour, in a photo of the calibration object."""
+def object_centres(image: np.ndarray, colours: list[str]) -> dict[str, list[tuple[np.ndarray, int]]]:
+    """Colour -> (centre, area in pixels) of the regions of that colour (``white``: bright and unsaturated),
+    largest first, as many as the object has spheres of the colour, in a photo of the calibration object."""
     wanted = {c: colours.count(c) for c in colours}
     masks = colour_masks(image, [c for c in wanted if c != "white"])
     if "white" in wanted:
@@ -40,19 +41,22 @@ def object_centres(image: np.ndarray, colours: list[str]) -> dict[str, list[np.n
     for colour, mask in masks.items():
         found = sorted(regions(mask, 6), key=lambda r: -r.area)[:wanted[colour]]
         if found:
-            out[colour] = [r.centroid for r in found]
+            out[colour] = [(r.centroid, r.area) for r in found]
     return out
 
 
-def identify_spheres(camera, points: np.ndarray, colours: list[str], found: dict) -> tuple[np.ndarray, np.ndarray]:
+def identify_spheres(camera, points: np.ndarray, colours: list[str], found: dict,
+                     sphere_radius: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Which sphere each found region is: spheres of one colour are told apart by trying every assignment and
     keeping the one whose camera pose reprojects best (each colour appears at most twice, so at most 2^8
-    tries); then a sphere whose reprojection is off by more than three times the median (hidden behind
-    another, partly) is dropped and the pose solved again. Returns (world points, pixels)."""
+    tries). A sphere half hidden behind another, or two of one colour run together, shows a region far from the
+    disc the pose predicts (``sphere_radius`` known: below 60 % or above 160 %): dropped; then, one by one,
+    the sphere whose reprojection is off by more than three times the median (a partly hidden one: its centre
+    of gravity moved), the pose solved again each time. Returns (world points, pixels)."""
     options = []
     for colour in dict.fromkeys(colours):
         indices = [i for i, c in enumerate(colours) if c == colour]
-        seen = found.get(colour, [])
+        seen = [c for c, _ in found.get(colour, [])]
         choices = [list(zip(perm, seen)) for perm in itertools.permutations(indices, len(seen))] if seen else [[]]
         options.append(choices)
     best = None
@@ -71,8 +75,19 @@ def identify_spheres(camera, points: np.ndarray, colours: list[str], found: dict
     if best is None:
         raise UserError(f"{camera.name}: fewer than 6 spheres of the calibration object were found")
     _, world, pixels, posed = best
-    residual = np.linalg.norm(posed.project(world) - pixels, axis=1)
-    keep = residual <= max(3.0 * float(np.median(residual)), 0.5)
+    keep = np.ones(len(world), bool)
+    if sphere_radius is not None:
+        areas = {tuple(np.round(c, 6)): a for entries in found.values() for c, a in entries}
+        disc = np.pi * (camera.fx * sphere_radius / posed.depth(world)) ** 2
+        shown = np.array([areas[tuple(np.round(p, 6))] for p in pixels]) / disc
+        keep &= (shown > 0.6) & (shown < 1.6)            # half hidden, or two discs run together
+    while keep.sum() > 6:
+        posed, _ = solve_pose(camera, world[keep], pixels[keep])
+        residual = np.linalg.norm(posed.project(world) - pixels, axis=1)
+        worst = int(np.argmax(np.where(keep, residual, -1.0)))
+        if residual[worst] <= max(3.0 * float(np.median(residual[keep])), 0.3):
+            break
+        keep[worst] = False                              # partly hidden: its centre of gravity moved
     return world[keep], pixels[keep]
 
 
@@ -109,7 +124,7 @@ def calibrate_setup(doc: dict, photos: dict[str, dict], progress=None) -> tuple[
         found = object_centres(flat, placement["colours"])
         undistorted = intrinsics.camera.undistorted()
         world, pixels = identify_spheres(undistorted, np.asarray(placement["points"], float), placement["colours"],
-                                         found)
+                                         found, doc.get("sphere_radius"))
         posed, error = solve_pose(undistorted, world, pixels)
         camera = intrinsics.camera.with_pose(posed.R, posed.t)
         cameras[name] = camera

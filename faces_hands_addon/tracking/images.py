@@ -67,12 +67,14 @@ def hsv(image: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return np.where(chroma > 0, hue * 60.0, 0.0), saturation, value
 
 
-def colour_masks(image: np.ndarray, names) -> dict[str, np.ndarray]:
-    """One boolean mask per named colour class of :data:`COLOURS`."""
+def colour_masks(image: np.ndarray, names, min_saturation: float | None = None) -> dict[str, np.ndarray]:
+    """One boolean mask per named colour class of :data:`COLOURS` (``min_saturation`` overrides the classes'
+    own: paint on a white ball blends with the white at its edges)."""
     hue, sat, val = hsv(image)
     out = {}
     for name in names:
         centre, min_sat, min_val = COLOURS[name]
+        min_sat = min_sat if min_saturation is None else min_saturation
         distance = np.abs((hue - centre + 180.0) % 360.0 - 180.0)
         out[name] = (distance < HUE_HALF_WIDTH) & (sat >= min_sat) & (val >= min_val)
     return out
@@ -108,23 +110,36 @@ def regions(mask: np.ndarray, min_area: int, weights: np.ndarray | None = None) 
 
 
 def radial_edges(value: np.ndarray, centre: np.ndarray, radius: float, level: float, count: int = 120,
-                 reach: float = 1.6) -> np.ndarray:
-    """Sub-pixel silhouette boundary: along ``count`` rays from ``centre`` the outermost place where the
-    (bilinear) brightness falls through ``level``, searched out to ``reach * radius``. (K, 2) points."""
+                 reach: float = 1.6, nearest: bool = False) -> np.ndarray:
+    """Sub-pixel silhouette boundary: along ``count`` rays from ``centre`` (searched out to ``reach * radius``)
+    the steepest fall of the (bilinear) brightness from above ``level`` towards the background, placed where the
+    brightness crosses half way between the two sides of the fall; the outermost such fall, or with ``nearest`` the one
+    nearest to ``radius`` (a dark marker on the ball, a neighbouring ball and a shadow's soft edge are then not
+    taken for the outline). A steepest fall does not depend on how brightly the lit part shines, where a
+    brightness level would move with the strobe's light across the ball. (K, 2) points."""
     angles = np.linspace(0.0, 2 * np.pi, count, endpoint=False)
     steps = np.arange(0.0, reach * radius, 0.25)
     directions = np.column_stack([np.cos(angles), np.sin(angles)])
     xy = centre[None, None, :] + steps[None, :, None] * directions[:, None, :]
     samples = ndimage.map_coordinates(value, [xy[..., 1].ravel() - 0.5, xy[..., 0].ravel() - 0.5], order=1,
                                       mode="constant").reshape(count, len(steps))
-    above = samples >= level
+    slope = np.diff(samples, axis=1)                        # between steps i and i + 1
     out = []
     for k in range(count):
-        inside = np.flatnonzero(above[k])
-        if len(inside) == 0 or inside[-1] + 1 >= len(steps):
+        d = slope[k]
+        dips = np.flatnonzero((d[1:-1] < d[:-2]) & (d[1:-1] <= d[2:])) + 1
+        dips = dips[(-d[dips] > 0.25 * max(-d.min(), 1e-9)) & (samples[k, dips] >= level)]
+        if len(dips) == 0:
             continue
-        i = inside[-1]
-        a, b = samples[k, i], samples[k, i + 1]
-        s = steps[i] + (a - level) / max(a - b, 1e-12) * (steps[i + 1] - steps[i])
-        out.append(centre + s * directions[k])
+        positions = steps[dips] + 0.125
+        i = int(dips[np.argmin(np.abs(positions - radius))]) if nearest else int(dips[-1])
+        lo, hi = max(i - 6, 0), min(i + 7, len(steps) - 1)
+        half = 0.5 * (samples[k, lo] + samples[k, hi])      # half way between the two sides of that fall
+        run = samples[k, lo:hi + 1]
+        j = np.flatnonzero((run[:-1] >= half) & (run[1:] < half))
+        if len(j) == 0:
+            continue
+        j = int(j[np.argmin(np.abs(j + lo - i))]) + lo
+        a, b = samples[k, j], samples[k, j + 1]
+        out.append(centre + (steps[j] + (a - half) / max(a - b, 1e-12) * 0.25) * directions[k])
     return np.array(out).reshape(-1, 2)

@@ -9,7 +9,7 @@ import numpy as np
 
 from .ball_model import BallModel
 
-__all__ = ["ball_mesh", "shade", "board_mesh", "icosphere", "skinned", "MeshArrays"]
+__all__ = ["ball_mesh", "shade", "board_mesh", "icosphere", "skinned", "MeshArrays", "shape_inside"]
 
 
 class MeshArrays:
@@ -30,7 +30,8 @@ def _tangent_frame(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return u, np.cross(d, u)
 
 
-def _inside(shape: str, x: np.ndarray, y: np.ndarray, r: float) -> np.ndarray:
+def shape_inside(shape: str, x: np.ndarray, y: np.ndarray, r: float) -> np.ndarray:
+    """Which of the points (x, y) lie inside a marker ``shape`` of half-width ``r`` (Fig. 6.28's shapes)."""
     if shape == "square":
         return (np.abs(x) <= 0.89 * r) & (np.abs(y) <= 0.89 * r)
     if shape == "triangle":
@@ -50,7 +51,7 @@ def _decal(shape: str, size: float, cells: int = 12) -> tuple[np.ndarray, list]:
     points = np.column_stack([gx.ravel(), gy.ravel()])
     mid = 0.5 * (ticks[:-1] + ticks[1:])
     cx, cy = np.meshgrid(mid, mid, indexing="xy")
-    keep = _inside(shape, cx.ravel(), cy.ravel(), r)
+    keep = shape_inside(shape, cx.ravel(), cy.ravel(), r)
     faces = []
     for k in np.flatnonzero(keep):
         j, i = divmod(int(k), cells)

@@ -224,7 +224,7 @@ def rigid_spin(model: BallModel, observations: list[tuple[np.ndarray, np.ndarray
         return np.cross(predicted, seen).ravel()
 
     x0 = np.concatenate([vector_from_rotation(orientations[0]), spin.vector])
-    fit = least_squares(residual, x0, method="lm")
+    fit = least_squares(residual, x0, method="trf", loss="soft_l1", f_scale=np.radians(0.7))
     refined = np.array(rotations(fit.x))
     rate = float(np.linalg.norm(fit.x[3:]))
     axis = fit.x[3:] / max(rate, 1e-12)

@@ -18,7 +18,7 @@ import numpy as np
 
 from ..core.errors import UserError
 from .ball import predicted_radius
-from .ball_markers import marker_directions, markers_in_photo
+from .ball_markers import marker_directions, markers_in_photo, spread
 from .ball_model import BallModel, ball_model
 from .glove import glove_layout
 from .hand_markers import cluster_hands, find_markers, merge_pairs, pair_markers
@@ -68,6 +68,17 @@ class PitchResult:
         doc["hand"] = [{"time": float(t), "root": arr(p.root), "angles": arr(p.angles), "labels": p.labels,
                         "missing": p.missing, "residual_mm": 1000 * p.residual} for t, p, *_ in self.hands]
         return doc
+
+
+def _smoothed(points: np.ndarray, times: np.ndarray) -> np.ndarray:
+    """The ball's centres on a parabola in time (over a tenth of a second the flight of Eq. 6.12 is one to far
+    below a millimetre): each marker's direction is measured from its ball's centre, and a millimetre off
+    there turns it by two degrees."""
+    if len(points) < 4:
+        return points
+    design = np.column_stack([np.ones_like(times), times, times ** 2])
+    coefficients, *_ = np.linalg.lstsq(design, points, rcond=None)
+    return design @ coefficients
 
 
 def check_photos(calibration: Calibration, photos: dict[str, np.ndarray]) -> list[str]:
@@ -150,13 +161,14 @@ class PitchTracker:
             return
         pair, found = self._front
         observations = []
-        for n, centre in enumerate(found.points):
+        for n, centre in enumerate(_smoothed(found.points, r.front_times)):
             detections = []
             for c, cam in enumerate(pair):
                 pixel = found.centres[c][n]
                 radius = predicted_radius(cam, centre, self.model.radius)
                 detections.append(markers_in_photo(self.flat[cam.name], pixel, radius, self.model))
-            observations.append(marker_directions(list(pair), detections, centre, self.model.radius))
+            spreads = [spread(shape, self.model.marker_size, self.model.radius) for shape in self.model.shapes]
+            observations.append(marker_directions(list(pair), detections, centre, self.model.radius, spreads=spreads))
         r.markers_per_ball = [len(o[1]) for o in observations]
         hz = self.calibration.strobes.get("front", 80.0)
         steps = flash_indices(r.front)

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .ball import Silhouette, find_silhouettes, predicted_radius, refine_centre, split_merged
+from .ball import Silhouette, find_silhouettes, neighbour_radius, refine_centre, split_merged
 from .camera import Camera
 from .stereo import match_pair, reprojection_errors, triangulate
 
@@ -32,11 +32,11 @@ class PairPositions:
 
 def _split(image_value: np.ndarray, found, warnings: list[str], name: str) -> list[Silhouette]:
     regular = [s for s in found.silhouettes if not s.merged]
-    radius = float(np.median([s.axes[1] for s in regular])) if regular else None
     out = []
     for s in found.silhouettes:
-        if s.merged and radius:
-            parts = split_merged(image_value, s, radius, 0.5 * found.threshold + 0.25)
+        radius = neighbour_radius(regular, s) if s.merged else None
+        if radius:
+            parts = split_merged(image_value, s, radius, found.threshold)
             if len(parts) == 2:
                 warnings.append(f"{name}: two balls overlap near pixel ({s.centre[0]:.0f}, {s.centre[1]:.0f}); "
                                 "separated by their circles")
@@ -66,15 +66,22 @@ def ball_positions(cameras: tuple[Camera, Camera], images: tuple[np.ndarray, np.
         empty = np.zeros((0, 3))
         return PairPositions(empty, [np.zeros((0, 2))] * 2, [[], []], empty, float("nan"), warnings)
     rough = triangulate(list(cameras), [centres[0][match.pairs[:, 0]], centres[1][match.pairs[:, 1]]])
-    refined = [np.zeros((len(match.pairs), 2)) for _ in cameras]
-    for n, (i, j) in enumerate(match.pairs):
-        for c, k in enumerate((i, j)):
-            s = sils[c][k]
-            level = 0.5 * found[c].threshold + 0.25
-            refined[c][n] = refine_centre(cameras[c], values[c], s, rough[n], ball_radius, level)
-            s.refined = refined[c][n]
-    points = triangulate(list(cameras), refined)
+    points = rough
+    for _ in range(2):        # the circles' stereo predicts the radii better than the ellipses' (half-moons)
+        refined = [np.zeros((len(match.pairs), 2)) for _ in cameras]
+        for n, (i, j) in enumerate(match.pairs):
+            for c, k in enumerate((i, j)):
+                s = sils[c][k]
+                refined[c][n] = refine_centre(cameras[c], values[c], s, points[n], ball_radius, found[c].threshold)
+                s.refined = refined[c][n]
+        points = triangulate(list(cameras), refined)
+    errors = np.nanmax(reprojection_errors(list(cameras), refined, points), axis=1)
+    good = errors <= max(1.5, 4.0 * float(np.median(errors)))
+    if not np.all(good):
+        warnings.append(f"{cameras[0].name}/{cameras[1].name}: {int(np.sum(~good))} ball position(s) whose circles do "
+                        "not meet in 3D (a wrong partner, two balls overlapping) were dropped")
+        points, refined, match.pairs, rough = points[good], [r[good] for r in refined], match.pairs[good], rough[good]
     order = np.argsort(points @ np.asarray(flight_direction, np.float64))
-    error = float(np.nanmean(reprojection_errors(list(cameras), refined, points)))
+    error = float(np.nanmean(errors[good]))
     chosen = [[sils[c][match.pairs[n, c]] for n in order] for c in range(2)]
     return PairPositions(points[order], [r[order] for r in refined], chosen, rough[order], error, warnings)

@@ -123,6 +123,7 @@ def _calibration_setup(setup: dict, photo: dict) -> dict:
         objects[name] = {"cameras": placement["cameras"], "colours": spec["colours"] * 2,
                          "points": object_points(placement["centre"], placement["size"]).tolist()}
     return {"format": "faces_hands.pitch_calibration_photos", "version": 1, "board": spec["board"],
+            "sphere_radius": spec["sphere_radius"],
             "objects": objects, "pairs": setup["pairs"],
             "strobes": {k: {"hz": v["hz"]} for k, v in setup["strobes"].items()},
             "plate_direction": setup["plate_direction"], "hand": {"photo": photo},

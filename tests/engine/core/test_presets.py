@@ -19,6 +19,7 @@ from faces_hands_addon.morph import population as morph_population  # noqa: F401
 from faces_hands_addon.speech import missing_words  # noqa: F401  (registers the transcript check's format)
 from faces_hands_addon.performance import priority  # noqa: F401  (registers the speech priority's format)
 from faces_hands_addon.speech.articulation import class_controls, load_articulation
+from faces_hands_addon.tracking import ball_model, glove, setup  # noqa: F401  (the pitch formats)
 
 FORMATS = {"expressions": "faces_hands.expressions", "face/landmarks": "faces_hands.face_landmarks",
            "face/muscles": "faces_hands.face_muscles", "speech/transcript_check": "faces_hands.transcript_check",
@@ -31,7 +32,9 @@ FORMATS = {"expressions": "faces_hands.expressions", "face/landmarks": "faces_ha
            "emotion/basic_expressions": "faces_hands.emotion_expressions",
            "behavior/styles": "faces_hands.behavior_styles", "behavior/loudness": "faces_hands.loudness",
            "performance/speech_priority": "faces_hands.speech_priority",
-           "character/bones": "faces_hands.bone_map"}
+           "character/bones": "faces_hands.bone_map",
+           "tracking/ball": "faces_hands.pitch_ball", "tracking/glove": "faces_hands.pitch_glove",
+           "tracking/pitches": "faces_hands.pitch_types", "tracking/setup": "faces_hands.pitch_setup"}
 
 
 def _format_of(relative: str) -> str:
