@@ -70,6 +70,7 @@ def checked_spec(raw: dict, fps: float, rig_path=None, jobs_path=None, overwrite
     """The take ``raw`` (out, text or audio, ...) checked and normalised, before any expensive work;
     ``once``: the checks of a jobs CSV's values, kept from row to row."""
     spec = {k: (v.strip() if isinstance(v, str) else v) for k, v in raw.items() if k}
+    one_line = once is None             # a jobs CSV checks every row's files at once (_check_rows)
     if not spec.get("out"):
         raise UserError("no output: the 'out' column (--out) is empty")
     folders = once.folders if once is not None else None
@@ -109,7 +110,7 @@ def checked_spec(raw: dict, fps: float, rig_path=None, jobs_path=None, overwrite
     outputs = {"the output": out, "the WAV beside the output": wav,
                "the sheet": _optional_path(spec, "sheet", (".png",), folders), "the Live Link CSV": live_link,
                "the mouth cues": cues}
-    if once is None:            # one line; a jobs CSV checks every row's files at once (_check_rows)
+    if one_line:
         refuse_collisions(outputs, {"audio": Path(audio) if audio else None,
                                     "rig": Path(rig_path) if rig_path else None,
                                     "jobs file": Path(jobs_path) if jobs_path else None})

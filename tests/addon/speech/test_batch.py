@@ -85,7 +85,7 @@ def _start(installed, tmp_path, rows: int):
     jobs.write_text("out,text\n" + "".join(f"{tmp_path / f'row{n}.glb'},{text}\n" for n in range(rows)))
     env = dict(os.environ, TMPDIR=str(tmp_path / "tmp"))
     (tmp_path / "tmp").mkdir()
-    return subprocess.Popen(fh_command(installed, "speak", "--jobs", jobs), cwd=ROOT, env=env,
+    return subprocess.Popen(fh_command(installed, "speak", "--rig", "mask", "--jobs", jobs), cwd=ROOT, env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 

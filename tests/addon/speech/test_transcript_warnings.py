@@ -39,11 +39,11 @@ def test_operator_refuses_a_wrong_transcript(bpy_clean):
 
 def test_cli_lipsync_prints_named_word_warnings_and_refuses_wrong_text(installed, tmp_path):
     from conftest import run_fh
-    wrong = run_fh(installed, "lipsync", "--audio", FIXTURE, "--transcript", "She sells sea shells by the shore.",
+    wrong = run_fh(installed, "lipsync", "--rig", "mask", "--audio", FIXTURE, "--transcript", "She sells sea shells by the shore.",
                    "--out", tmp_path / "wrong.glb")
     assert wrong.returncode == 1 and "does not match the audio" in wrong.stderr, wrong.stderr[-2000:]
     assert not (tmp_path / "wrong.glb").exists()
-    result = run_fh(installed, "lipsync", "--audio", FIXTURE, "--transcript", ADDED_WORD,
+    result = run_fh(installed, "lipsync", "--rig", "mask", "--audio", FIXTURE, "--transcript", ADDED_WORD,
                     "--out", tmp_path / "x.glb")
     assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
     assert "'elephant'" in result.stdout and "not in the recording" in result.stdout, result.stdout[-2000:]
