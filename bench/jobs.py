@@ -50,9 +50,14 @@ WORDS = ("the quick brown fox jumps over a lazy dog while seven bright lanterns 
          "harbour and old sailors sing about distant islands we may never see again").split()
 
 
+RIG: list[str] = []          # ``--rig mask``: the face-only head instead of the default character
+
+
 def fh(*args) -> list[str]:
+    """The command line of ``faces_hands ARGS`` (a ``jobs`` run on the rig ``--rig`` chose)."""
+    extra = RIG if args and args[0] == "jobs" and "--openjd" not in args else []
     return [sys.executable, str(ROOT / "scripts" / "fh_launch.py"), "--user-dir", str(USER_DIR), "--",
-            *map(str, args)]
+            *map(str, args), *extra]
 
 
 def manifest(path: Path, rows: int, seed: int = 7) -> Path:
@@ -250,11 +255,14 @@ def main() -> None:
     parser.add_argument("--resume-rows", type=int, default=1000)
     parser.add_argument("--skip", default="", help="comma-separated parts to leave out: check,resume,throughput,"
                                                    "kill,openjd")
+    parser.add_argument("--rig", help="mask: every row on the face-only head (default: the default character)")
     args = parser.parse_args()
+    if args.rig:
+        RIG[:] = ["--rig", args.rig]
     rows = 1000 if args.full else args.rows
     skip = set(filter(None, args.skip.split(",")))
     folder = Path(tempfile.mkdtemp(prefix="fh-bench-jobs-"))
-    figures = {"rows": rows, "cores": os.cpu_count()}
+    figures = {"rows": rows, "cores": os.cpu_count(), "rig": args.rig or "character"}
     try:
         warm = manifest(folder / "warm.csv", 1, seed=1)          # fill the shape cache once
         timed(fh("jobs", warm, "--out-dir", folder / "warm"))
