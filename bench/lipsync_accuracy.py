@@ -129,10 +129,16 @@ def score(closed_spans, phones):
             "release_ms": float(np.median(releases)) if releases else float("nan")}
 
 
+#: the rig every take goes on: the face-only head (``--rig mask``, the default here: the face rig and speech
+#: priority the character carries, without its 50 s build per take); ``--rig character`` scores the default
+#: character's export instead
+RIG = ["--rig", "mask"]
+
+
 def lipsync(wav: Path, text: str, out: Path, animation: str) -> tuple[float, str]:
     started = time.perf_counter()
     done = subprocess.run([str(ROOT / "fh"), "lipsync", "--audio", str(wav), "--transcript", text, "--out",
-                           str(out), "--animation", animation, "--overwrite"], capture_output=True, text=True)
+                           str(out), "--animation", animation, "--overwrite", *RIG], capture_output=True, text=True)
     if done.returncode != 0:
         raise client.Failure(f"./fh lipsync failed: {done.stderr.strip()[-1500:]}")
     return time.perf_counter() - started, done.stdout + done.stderr
@@ -193,8 +199,11 @@ def main() -> int:
     parser.add_argument("--transcript", help="what is said in --audio")
     parser.add_argument("--cache", action="store_true", help="also measure --animation frames (slow)")
     parser.add_argument("--no-rhubarb", action="store_true", help="skip Rhubarb (quick runs while tuning)")
+    parser.add_argument("--rig", choices=("mask", "character"), default="mask",
+                        help="mask (default): the face-only head; character: the default character")
     parser.add_argument("--keep", type=Path, help="keep the files in this folder")
     args = parser.parse_args()
+    RIG[:] = [] if args.rig == "character" else ["--rig", "mask"]
     if RHUBARB is None or (args.audio is None and shutil.which("festival") is None):
         sys.exit("needs `make bench-client` (Rhubarb) and, without --audio, Debian's festival + festvox-us-slt-hts")
     folder = args.keep or Path(tempfile.mkdtemp(prefix="fh-lipsync-acc-"))

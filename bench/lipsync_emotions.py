@@ -99,7 +99,7 @@ def quick_recording(folder: Path):
 def run(wav: Path, text: str, out: Path, extra: list[str]) -> float:
     started = time.perf_counter()
     done = subprocess.run([str(ROOT / "fh"), "lipsync", "--audio", str(wav), "--transcript", text, "--out",
-                           str(out), "--overwrite", *extra], capture_output=True, text=True)
+                           str(out), "--overwrite", *extra, *acc.RIG], capture_output=True, text=True)
     if done.returncode != 0:
         raise client.Failure(f"./fh lipsync {' '.join(extra)} failed: {done.stderr.strip()[-1500:]}")
     return time.perf_counter() - started
@@ -177,8 +177,11 @@ def main() -> int:
     parser.add_argument("--full", action="store_true", help="also every style x every word")
     parser.add_argument("--only", help="comma-separated substrings: run the conditions whose label has one")
     parser.add_argument("--no-rhubarb", action="store_true", help="skip Rhubarb (quick runs while tuning)")
+    parser.add_argument("--rig", choices=("mask", "character"), default="mask",
+                        help="mask (default): the face-only head; character: the default character")
     parser.add_argument("--keep", type=Path, help="keep the files in this folder")
     args = parser.parse_args()
+    acc.RIG[:] = [] if args.rig == "character" else ["--rig", "mask"]
     folder = args.keep or Path(tempfile.mkdtemp(prefix="fh-lipsync-emo-"))
     folder.mkdir(parents=True, exist_ok=True)
     try:
