@@ -21,6 +21,7 @@ foreign_import``): these checks bound what a file claims, the child bounds what 
 """
 from __future__ import annotations
 
+import errno
 import json
 import struct
 from pathlib import Path
@@ -54,7 +55,8 @@ def check_path(path, what: str = "the file") -> Path:
     except FileNotFoundError:
         raise UserError(f"{text} does not exist") from None
     except (RuntimeError, OSError) as error:       # a symlink loop (RuntimeError before Python 3.13), ELOOP, EACCES
-        reason = "a symbolic link that points back to itself" if "loop" in str(error).lower() else str(error)
+        loop = getattr(error, "errno", None) == errno.ELOOP or "loop" in str(error).lower()
+        reason = "a symbolic link that points back to itself" if loop else str(error)
         raise UserError(f"{text} cannot be opened: {reason}") from None
     if resolved.is_dir():
         raise UserError(f"{text} is a folder; name a file")

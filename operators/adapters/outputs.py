@@ -6,6 +6,7 @@ wrote (``written_since``); ``refuse_collisions`` makes sure no output ever repla
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import shutil
 import tempfile
@@ -38,6 +39,11 @@ def check_output_path(path: str | os.PathLike, suffixes: tuple[str, ...], folder
                 raise UserError(f"output {out} exists and is not a regular file (or is a link that leads nowhere)")
         folders.once(("takes files", real), lambda: _check_folder_takes_files(Path(real), out))
         return out
+    try:
+        os.stat(out)                             # ELOOP on every Python (3.13's resolve() no longer raises)
+    except OSError as error:
+        if error.errno == errno.ELOOP:
+            raise UserError(f"output {out} is a symbolic link that points back to itself") from None
     try:
         resolved = out.resolve()
     except (RuntimeError, OSError):              # RuntimeError: a symlink loop (Python before 3.13)
