@@ -7,6 +7,7 @@ from pathlib import Path
 import bpy
 
 from ...faces_hands_addon.core.errors import UserError
+from ...faces_hands_addon.hand import motion
 from ..adapters.blendfile import save_blend
 from ..adapters.outputs import atomic_output, check_output_path, written
 from ..adapters.rig_store import get_rig
@@ -64,8 +65,13 @@ class AnimateHand(_HandCommand):
 
     @classmethod
     def check(cls, args) -> None:
+        """Arguments checked before any rig is built or opened (a wrong name costs no building)."""
         if not 1.0 <= args.fps <= 240.0:
             raise UserError("--fps must be between 1 and 240")
+        poses, motions = motion.pose_names(), motion.motion_names()
+        if args.preset not in poses and args.preset not in motions:
+            raise UserError(f"unknown hand motion or pose {args.preset!r}; motions: {', '.join(motions)}; "
+                            f"poses: {', '.join(poses)}")
 
     @classmethod
     def work(cls, args, obj, out, progress) -> str:
@@ -111,6 +117,12 @@ class RenderHand(_HandCommand):
         if not 1 <= args.columns <= 20:
             raise UserError("--columns must be between 1 and 20")
         cls._cell_size(args)
+        if args.poses and args.sheet == "poses":
+            known = motion.pose_names()
+            unknown = [p.strip() for p in args.poses.split(",") if p.strip() not in known]
+            if unknown:
+                raise UserError(f"unknown hand pose(s) {', '.join(map(repr, unknown))}; the poses are "
+                                f"{', '.join(known)}")
 
     @classmethod
     def work(cls, args, obj, out, progress) -> str:

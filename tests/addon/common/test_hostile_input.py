@@ -166,3 +166,18 @@ def test_one_scene_exports_to_the_same_fbx_bytes_in_two_processes(bpy_clean, cap
     result = run_fh(installed, "morph", "--seed", "3", "--out", there)
     assert result.returncode == 0, result.stderr[-2000:]
     assert here.read_bytes() == there.read_bytes()
+
+
+@pytest.mark.parametrize("args, message", [
+    (("animate-hand", "--preset", "thumbs-upp", "--out", "{h.glb}"), "unknown hand motion or pose 'thumbs-upp'"),
+    (("render-hand", "--poses", "fist,fits", "--out", "{h.png}"), "unknown hand pose(s) 'fits'"),
+])
+def test_a_wrong_hand_preset_name_is_refused_before_any_hand_is_built(bpy_clean, capsys, files, args, message):
+    """Issue 36 (bad input): an unknown preset or pose name is one message naming the choices, before the
+    reference hand is built (main built it for 9.9 s first): no object is made, no file written."""
+    args = [str(files / a[1:-1]) if a.startswith("{") else a for a in args]
+    objects, before = len(bpy_clean.data.objects), _listing(files)
+    code, err = _cli(capsys, *args)
+    assert code == 1 and message in err and "fist" in err, err
+    assert len(bpy_clean.data.objects) == objects and len(bpy_clean.data.meshes) == 0
+    assert _listing(files) == before
