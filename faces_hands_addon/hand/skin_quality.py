@@ -20,7 +20,7 @@ from scipy.spatial import cKDTree
 
 from ..core import geometry
 
-__all__ = ["edge_ratios", "self_intersections", "surface_gap", "patch_near"]
+__all__ = ["edge_ratios", "intersecting_pairs", "self_intersections", "surface_gap", "patch_near"]
 
 _EPS = 1e-12
 
@@ -63,12 +63,12 @@ def _candidate_pairs(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return pairs[~shared]
 
 
-def self_intersections(vertices: np.ndarray, faces: np.ndarray, chunk: int = 200_000) -> int:
-    """How many pairs of triangles without a shared vertex pass through each other."""
+def intersecting_pairs(vertices: np.ndarray, faces: np.ndarray, chunk: int = 200_000) -> np.ndarray:
+    """The pairs (P, 2) of triangles without a shared vertex that pass through each other."""
     vertices = np.asarray(vertices, dtype=np.float64)
     faces = np.asarray(faces, dtype=np.int64)
     pairs = _candidate_pairs(vertices, faces)
-    count = 0
+    found = []
     for start in range(0, len(pairs), chunk):
         part = pairs[start:start + chunk]
         tri_a, tri_b = vertices[faces[part[:, 0]]], vertices[faces[part[:, 1]]]
@@ -77,8 +77,13 @@ def self_intersections(vertices: np.ndarray, faces: np.ndarray, chunk: int = 200
             for k in range(3):
                 hit |= _segments_cross_triangles(first[:, k], first[:, (k + 1) % 3],
                                                  second[:, 0], second[:, 1], second[:, 2])
-        count += int(hit.sum())
-    return count
+        found.append(part[hit])
+    return np.concatenate(found) if found else np.zeros((0, 2), dtype=np.int64)
+
+
+def self_intersections(vertices: np.ndarray, faces: np.ndarray) -> int:
+    """How many pairs of triangles without a shared vertex pass through each other."""
+    return len(intersecting_pairs(vertices, faces))
 
 
 def patch_near(rest: np.ndarray, point: np.ndarray, radius: float) -> np.ndarray:
