@@ -26,7 +26,7 @@ import numpy as np
 from ..core.errors import UserError
 from .presets import poses_preset
 
-__all__ = ["pose_names", "motion_names", "pose_contractions", "pose_squeeze", "pose_stages", "motion_keys",
+__all__ = ["pose_names", "motion_names", "check_preset_name", "check_pose_names", "pose_contractions", "pose_squeeze", "pose_stages", "motion_keys",
            "hermite", "motion_table", "checked_contractions", "SQUEEZE_AFTER", "SQUEEZE_RISE"]
 
 SQUEEZE_AFTER = 1.0     # s a staged pose's key is held in a motion before its squeeze rises (the thumb settles)
@@ -53,6 +53,23 @@ def pose_names() -> list[str]:
 
 def motion_names() -> list[str]:
     return sorted(poses_preset().get("motions", {}))
+
+
+def check_preset_name(name: str) -> None:
+    """Refuse ``name`` unless it is a motion or a pose of the hand presets (a UserError naming both lists)."""
+    doc = poses_preset()
+    motions = doc.get("motions", {})
+    if name not in doc["poses"] and name not in motions:
+        raise UserError(f"unknown hand motion or pose {name!r}; motions: {', '.join(sorted(motions))}; poses: "
+                        f"{', '.join(sorted(doc['poses']))}")
+
+
+def check_pose_names(names: list[str]) -> None:
+    """Refuse the names of ``names`` that are no pose of the hand presets (one UserError naming them all)."""
+    known = pose_names()
+    unknown = [name for name in names if name not in known]
+    if unknown:
+        raise UserError(f"unknown hand pose(s) {', '.join(map(repr, unknown))}; the poses are {', '.join(known)}")
 
 
 def pose_contractions(name: str, muscles: list[str]) -> dict[str, float]:
@@ -93,9 +110,7 @@ def motion_keys(name: str, muscles: list[str]) -> tuple[np.ndarray, list[dict[st
             return np.array([0.0, 0.5, 1.5]), [{}, stages[0], stages[0]]
         times = [0.0, 0.5, 0.5 + SQUEEZE_AFTER, 0.5 + SQUEEZE_AFTER + SQUEEZE_RISE, 1.5 + SQUEEZE_AFTER + SQUEEZE_RISE]
         return np.array(times), [{}, stages[0], stages[0], stages[1], stages[1]]
-    if name not in motions:
-        raise UserError(f"unknown hand motion or pose {name!r}; motions: {', '.join(sorted(motions))}; poses: "
-                        f"{', '.join(sorted(doc['poses']))}")
+    check_preset_name(name)
     keys = motions[name].get("keys", [])
     times, poses = [], []
     for key in keys:

@@ -40,14 +40,11 @@ def check_output_path(path: str | os.PathLike, suffixes: tuple[str, ...], folder
         folders.once(("takes files", real), lambda: _check_folder_takes_files(Path(real), out))
         return out
     try:
-        os.stat(out)                             # ELOOP on every Python (3.13's resolve() no longer raises)
+        os.stat(out)             # a symlink loop is ELOOP on every Python (3.13's resolve() no longer raises)
     except OSError as error:
         if error.errno == errno.ELOOP:
             raise UserError(f"output {out} is a symbolic link that points back to itself") from None
-    try:
-        resolved = out.resolve()
-    except (RuntimeError, OSError):              # RuntimeError: a symlink loop (Python before 3.13)
-        raise UserError(f"output {out} is a symbolic link that points back to itself") from None
+    resolved = out.resolve()
     if resolved.is_dir():
         raise UserError(f"output {out} is a directory; give a file name")
     if resolved.exists() and not resolved.is_file():

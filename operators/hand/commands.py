@@ -68,10 +68,7 @@ class AnimateHand(_HandCommand):
         """Arguments checked before any rig is built or opened (a wrong name costs no building)."""
         if not 1.0 <= args.fps <= 240.0:
             raise UserError("--fps must be between 1 and 240")
-        poses, motions = motion.pose_names(), motion.motion_names()
-        if args.preset not in poses and args.preset not in motions:
-            raise UserError(f"unknown hand motion or pose {args.preset!r}; motions: {', '.join(motions)}; "
-                            f"poses: {', '.join(poses)}")
+        motion.check_preset_name(args.preset)
 
     @classmethod
     def work(cls, args, obj, out, progress) -> str:
@@ -112,17 +109,17 @@ class RenderHand(_HandCommand):
             raise UserError("--cell-size must be WIDTHxHEIGHT, each 64-4096 pixels (e.g. 720x900)")
         return cell_size
 
+    @staticmethod
+    def _pose_names(args) -> list[str] | None:
+        return [n.strip() for n in args.poses.split(",")] if args.poses else None
+
     @classmethod
     def check(cls, args) -> None:
         if not 1 <= args.columns <= 20:
             raise UserError("--columns must be between 1 and 20")
         cls._cell_size(args)
         if args.poses and args.sheet == "poses":
-            known = motion.pose_names()
-            unknown = [p.strip() for p in args.poses.split(",") if p.strip() not in known]
-            if unknown:
-                raise UserError(f"unknown hand pose(s) {', '.join(map(repr, unknown))}; the poses are "
-                                f"{', '.join(known)}")
+            motion.check_pose_names(cls._pose_names(args))
 
     @classmethod
     def work(cls, args, obj, out, progress) -> str:
@@ -130,7 +127,7 @@ class RenderHand(_HandCommand):
 
     @classmethod
     def write(cls, args, obj, out, progress) -> None:
-        names = [n.strip() for n in args.poses.split(",")] if args.poses else None
+        names = cls._pose_names(args)
         rig = get_rig(obj, "hand")
         cells = sheet.bulge_cells(rig) if args.sheet == "bulges" else sheet.pose_cells(rig, names)
         with atomic_output(out) as tmp:
