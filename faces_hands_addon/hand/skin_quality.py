@@ -22,7 +22,8 @@ from ..core import geometry
 
 __all__ = ["edge_ratios", "intersecting_pairs", "self_intersections", "surface_gap", "patch_near"]
 
-_EPS = 1e-12
+_EPS = 1e-12            # rest edge length below which an edge has no ratio (units of the mesh)
+_PARALLEL = 1e-9        # |det| over |segment| |edge 1| |edge 2|: a segment this near the triangle's plane misses
 
 
 def edge_ratios(rest: np.ndarray, posed: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -40,7 +41,8 @@ def _segments_cross_triangles(p0, p1, a, b, c) -> np.ndarray:
     e1, e2 = b - a, c - a
     h = np.cross(direction, e2)
     det = np.einsum("ij,ij->i", e1, h)
-    ok = np.abs(det) > _EPS
+    scale = np.linalg.norm(direction, axis=1) * np.linalg.norm(e1, axis=1) * np.linalg.norm(e2, axis=1)
+    ok = np.abs(det) > _PARALLEL * scale       # relative: the same answer in mm, m or inches
     inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
     s = p0 - a
     u = inv * np.einsum("ij,ij->i", s, h)

@@ -28,6 +28,13 @@ def test_self_intersections_counts_pairs_passing_through_each_other(second, cros
     assert skin_quality.self_intersections(vertices, faces) == crossing
 
 
+@pytest.mark.parametrize("scale", [1e-5, 1.0, 1e3])
+def test_a_crossing_is_found_in_any_units(scale):
+    """A mesh in metres with 0.01 mm triangles crosses where the same mesh in millimetres does."""
+    vertices, faces = _two(np.array([[0.2, 0.2, -0.5], [0.2, 0.2, 0.5], [0.9, 0.9, 0.5]]))
+    assert skin_quality.self_intersections(vertices * scale, faces) == 1
+
+
 def test_neighbours_sharing_a_vertex_are_not_an_intersection():
     vertices = np.vstack([TRIANGLE, [[0.2, 0.2, -0.5], [0.2, 0.2, 0.5]]])
     assert skin_quality.self_intersections(vertices, np.array([[0, 1, 2], [0, 3, 4]])) == 0
