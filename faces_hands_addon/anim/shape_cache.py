@@ -9,9 +9,15 @@ makes new keys) and numpy's version; a hit returns the very arrays the
 simulation produced (stored losslessly as ``.npz`` without pickles), so an animation baked from cached
 targets is byte-identical to one baked from fresh ones. The folder is the extension's user folder (the
 operators hand it in); the oldest entries go when it passes ``MAX_BYTES``.
+
+A process also keeps the entries it read or wrote in memory (at most ``MEMORY_BYTES``, the least recently
+used go first): a jobs worker bakes every line with the same 211 targets, and reading them from disk again
+cost 1.7 s a line. A kept entry is used only while its file is still there, unchanged (same size and
+modification time), so the memory never answers what the folder would not; callers get copies.
 """
 from __future__ import annotations
 
+import collections
 import functools
 import hashlib
 import json
@@ -26,10 +32,11 @@ import numpy as np
 from ..core.presets import SHIPPED_FOLDER, user_folder
 from ..core.rig import Pose
 
-__all__ = ["ShapeCache", "FORMAT", "MAX_BYTES", "engine_fingerprint"]
+__all__ = ["ShapeCache", "FORMAT", "MAX_BYTES", "MEMORY_BYTES", "engine_fingerprint"]
 
 FORMAT = 1
 MAX_BYTES = 512 * 1024 * 1024
+MEMORY_BYTES = 256 * 1024 * 1024    # entries kept in this process (module docstring)
 _ENTRY_LIMIT = 64 * 1024 * 1024      # one shape's file; anything larger is not ours
 _TMP_PREFIX = ".fh-shape-"           # an entry being written (renamed into place when whole)
 
@@ -126,8 +133,74 @@ def _plain(values):
     return float(values)
 
 
+class _Kept:
+    """The entries this process read or wrote, by path, with the file's (size, mtime) they belong to."""
+
+    def __init__(self, limit: int):
+        self.limit, self.size = limit, 0
+        self.entries: collections.OrderedDict = collections.OrderedDict()
+
+    def get(self, path: Path, stamp) -> Pose | None:
+        entry = self.entries.get(path)
+        if entry is None or entry[0] != stamp:
+            return None
+        self.entries.move_to_end(path)
+        return _copy(entry[1])
+
+    def put(self, path: Path, stamp, pose: Pose) -> None:
+        self.drop(path)
+        kept = _copy(pose)
+        size = _nbytes(kept)
+        if size > self.limit:
+            return
+        self.entries[path] = (stamp, kept, size)
+        self.size += size
+        while self.size > self.limit:
+            _, (_, _, dropped) = self.entries.popitem(last=False)
+            self.size -= dropped
+
+    def drop(self, path: Path) -> None:
+        entry = self.entries.pop(path, None)
+        if entry is not None:
+            self.size -= entry[2]
+
+
+_KEPT = _Kept(MEMORY_BYTES)
+
+
+def _copy(pose: Pose) -> Pose:
+    return Pose({k: a.copy() for k, a in pose.positions.items()}, {k: a.copy() for k, a in pose.transforms.items()})
+
+
+def _nbytes(pose: Pose) -> int:
+    return sum(a.nbytes for group in (pose.positions, pose.transforms) for a in group.values())
+
+
+def _stamp(path: Path):
+    """(size, modification time in ns) of the file at ``path``, or None when there is none."""
+    try:
+        stat = path.stat()
+    except OSError:
+        return None
+    return (stat.st_size, stat.st_mtime_ns) if path.is_file() else None
+
+
 def _read(path: Path) -> Pose | None:
     """The pose stored at ``path``, or None when it is missing or not a sound entry (then it is recomputed)."""
+    stamp = _stamp(path)
+    if stamp is None:
+        _KEPT.drop(path)
+        return None
+    kept = _KEPT.get(path, stamp)
+    if kept is not None:
+        return kept
+    pose = _read_file(path)
+    if pose is not None:
+        _KEPT.put(path, stamp, pose)
+    return pose
+
+
+def _read_file(path: Path) -> Pose | None:
     try:
         if not path.is_file() or path.stat().st_size > _ENTRY_LIMIT:
             return None
@@ -157,6 +230,9 @@ def _write(path: Path, pose: Pose) -> None:
         with os.fdopen(handle, "wb") as stream:
             np.savez(stream, **arrays)
         os.replace(tmp, path)
+        stamp = _stamp(path)
+        if stamp is not None:
+            _KEPT.put(path, stamp, pose)
     except OSError:
         pass
     finally:

@@ -15,17 +15,19 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..anim.layers import weighted_sum
+from ..anim.layers import mix, weighted_sum
 from ..behavior.events import HEAD_LIMIT_RAD
 from ..core.controls import ControlSpec
 from .skeleton import CharacterSkeleton
 
 __all__ = ["HEAD_CONTROLS", "HEAD_CHAINS", "TRACK_CONTROLS", "head_specs", "chain_terms", "bone_terms", "bone_eulers",
-           "euler_matrix", "chain_of"]
+           "euler_matrix", "chain_of", "head_turns", "HEAD_TRACK_LAYER"]
 
 HEAD_CONTROLS = ("head_pitch", "head_yaw", "head_roll")
 #: the behaviour's head tracks (``speech.takes``) -> the character's controls
 TRACK_CONTROLS = {"head.pitch": "head_pitch", "head.yaw": "head_yaw", "head.roll": "head_roll"}
+#: the control layer a take's head tracks drive on a character
+HEAD_TRACK_LAYER = "behavior"
 #: the bones that turn the head, from the neck up, with their share of the turn (a chain's shares add up to
 #: the whole turn of the head); a Rigify character turns its generated control rig's neck and head controls,
 #: whose head does not inherit the neck's turn (Rigify's head follows the torso): it gets the whole turn
@@ -81,6 +83,25 @@ def bone_terms(skeleton: CharacterSkeleton, chain=None, rest: dict | None = None
 def bone_eulers(values: dict[str, float], terms: dict) -> dict[str, np.ndarray]:
     """Each chain bone's Euler angles (XYZ, radians) for mixed control ``values``."""
     return {bone: np.array([weighted_sum(axis, values, -WIDE, WIDE) for axis in axes]) for bone, axes in terms.items()}
+
+
+def head_turns(table, specs, terms: dict, head=(), fps: float = 30.0, start_frame: float = 0.0) -> dict[str, np.ndarray]:
+    """bone -> (F, 3) Euler angles at each frame of the layer table ``table`` (``anim.layers.LayerTable``)
+    with a take's ``head`` tracks (``head.pitch/yaw/roll``, seconds from ``start_frame`` at ``fps``) added
+    to the :data:`HEAD_TRACK_LAYER` layer, where a take puts them on a character; the layers mixed as every
+    control is (:func:`..anim.layers.mix`, the drivers' sum): the head's turn as a take's export writes it,
+    from the take itself."""
+    times = (np.asarray(table.frames, np.float64) - float(start_frame)) / float(fps)
+    added = {TRACK_CONTROLS[t.name]: t.sample(times) for t in head if t.name in TRACK_CONTROLS}
+    rows = []
+    for index in range(len(table)):
+        layers = table.at(index)
+        layer = layers.setdefault(HEAD_TRACK_LAYER, {})
+        for control, values in added.items():
+            layer[control] = layer.get(control, 0.0) + float(values[index])
+        values = mix(layers, specs)
+        rows.append(bone_eulers({name: values[name] for name in HEAD_CONTROLS}, terms))
+    return {bone: np.stack([row[bone] for row in rows]) for bone in terms}
 
 
 def euler_matrix(angles: np.ndarray) -> np.ndarray:

@@ -49,11 +49,13 @@ ASIDE = ".fh-export-original"
 class ExportOptions:
     """``clip``: the name of the one animation clip (default: the rig object's name); ``frame_range``:
     (first, last) frame to export (default: the scene's); ``scale``: uniform scale of the exported rig;
-    ``selected_only``: only the rig's parts that are selected (the rig object itself always goes)."""
+    ``selected_only``: only the rig's parts that are selected (the rig object itself always goes);
+    ``animation``: False writes the still rig only (no clip; glTF only: ``adapters.take_export``)."""
     clip: str | None = None
     frame_range: tuple[int, int] | None = None
     scale: float = 1.0
     selected_only: bool = False
+    animation: bool = True
 
 
 def export_objects(obj, roles, selected_only: bool = False) -> list:
@@ -299,20 +301,20 @@ def _name_clip(path: Path, clip: str) -> None:
                      + struct.pack("<I4s", len(text), b"JSON") + text + rest)
 
 
-def _write(path: Path, clip: str, sampled: bool = True, armature: bool = False) -> None:
+def _write(path: Path, clip: str, sampled: bool = True, armature: bool = False, animation: bool = True) -> None:
     if path.suffix.lower() == ".glb":
         bpy.ops.export_scene.gltf(
             filepath=str(path), export_format="GLB", use_selection=True, export_apply=False, export_morph=True,
-            export_morph_normal=False, export_animations=True, export_anim_slide_to_zero=True, export_yup=True,
+            export_morph_normal=False, export_animations=animation, export_anim_slide_to_zero=True, export_yup=True,
             export_animation_mode="ACTIVE_ACTIONS", export_nla_strips_merged_animation_name=clip,
             export_frame_range=True, export_optimize_animation_size=False, export_force_sampling=sampled,
             export_bake_animation=armature)     # a character's bones move by drivers: sampled without an action
-        if not sampled:
+        if animation and not sampled:
             _name_clip(path, clip)
     else:
         bpy.ops.export_scene.fbx(
             filepath=str(path), use_selection=True, object_types={"MESH", "ARMATURE"}, use_mesh_modifiers=False,
-            bake_anim=True, bake_anim_use_all_actions=False, bake_anim_use_nla_strips=False,
+            bake_anim=animation, bake_anim_use_all_actions=False, bake_anim_use_nla_strips=False,
             bake_anim_simplify_factor=0.0, add_leaf_bones=False)
         path.write_bytes(reproducible(path.read_bytes()))   # same scene, same bytes
 
@@ -341,7 +343,7 @@ def export_rig(context, obj, filepath: str, roles, options: ExportOptions = Expo
                                _metres_per_unit(scene) if out.suffix.lower() == ".glb" else 1.0)
         with _clean_copies(context, objects, placement) as copies, atomic_output(out) as tmp:
             _select_only(context, copies)
-            _write(tmp, clip, sampled, objects[0].type == "ARMATURE")
+            _write(tmp, clip, sampled, objects[0].type == "ARMATURE", options.animation)
     except RuntimeError as error:
         raise UserError(f"export to {out} failed: {error}") from None
     finally:

@@ -10,6 +10,8 @@ rig's parts and the rig's output space.
 """
 from __future__ import annotations
 
+import hashlib
+
 from dataclasses import dataclass
 
 import bpy
@@ -123,6 +125,17 @@ class WeightsBakeJob(Job):
 
     def fit(self):
         return self.bake.fit()
+
+    def targets_key(self) -> str:
+        """A digest of the targets this bake writes on the meshes (names and the engine's arrays)."""
+        digest = hashlib.sha256()
+        for shape in self.bake.shapes:
+            digest.update(shape.name.encode("utf-8"))
+            for group in (shape.pose.positions, shape.pose.transforms):
+                for role in sorted(group):
+                    digest.update(role.encode("utf-8"))
+                    digest.update(np.ascontiguousarray(group[role]).tobytes())
+        return digest.hexdigest()
 
     def commit(self, context) -> str:
         obj = bpy.data.objects[self.obj_name]

@@ -18,9 +18,10 @@ from __future__ import annotations
 import numpy as np
 
 from ..adapters.timing import seconds_to_frames
+from ...faces_hands_addon.character.head import HEAD_TRACK_LAYER
 
 HEAD_PATHS = ("delta_rotation_euler", "delta_location")
-HEAD_LAYER = "behavior"
+HEAD_LAYER = HEAD_TRACK_LAYER          # the behaviour layer: where a character's head turn goes
 
 
 def _on_bones(obj) -> bool:

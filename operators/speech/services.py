@@ -14,7 +14,7 @@ from ...faces_hands_addon.core.errors import UserError
 from ..adapters.blendfile import open_blend
 from ..adapters.export import save_or_export
 from ..adapters.outputs import atomic_output
-from ..adapters.rig_store import adopt_rig, is_rig
+from ..adapters.rig_store import adopt_rig, get_rig, is_rig
 from ..adapters.targets import write_live_link
 from ..adapters.timing import scene_fps, set_scene_fps
 from ..character import services as character
@@ -56,18 +56,39 @@ def _prepare_rig(rig_path: str | None, fps: float, progress, engine_rig=None):
     return rig_obj
 
 
-def _bake_take(rig_obj, take, progress, animation: str = "weights") -> None:
+def _bake_take(rig_obj, take, progress, animation: str = "weights"):
     """Put the take on the rig (F-curves and sound for the artist), then bake the engine take itself,
     never the curves just written (data flows one way): every frame simulated, as engine-ready weights of
-    the fixed targets or as the exact per-frame cache (``animation="frames"``)."""
+    the fixed targets or as the exact per-frame cache (``animation="frames"``). Returns the finished bake
+    job and the engine take it baked (they give a GLB its clip: ``adapters.take_export``)."""
     from ...faces_hands_addon.performance import take_of
+    from ..bases.jobs import run_job
     scene = bpy.context.scene
     scene.frame_start = 0
     report = apply.apply_take(scene, rig_obj, take, start_frame=0)
     scene.frame_end = max(1, int(math.ceil(take.duration * scene_fps(scene))))
     print(report)
-    print(face.bake(bpy.context, rig_obj, "animation", progress=progress, animation=animation,
-                    take=(take_of(take), 0)))
+    engine_take = take_of(take)
+    job = face.bake_job(bpy.context, rig_obj, "animation", animation=animation, take=(engine_take, 0))
+    print(run_job(job, bpy.context, progress))
+    return job, engine_take
+
+
+def _save_take(rig_obj, out: Path, baked) -> Path:
+    """The take's file: a character's GLB from its still export and the bake's clip (``take_export``: no
+    per-frame sampling), anything else through Blender's exporters."""
+    from ..adapters import take_export
+    job, engine_take = baked if baked is not None else (None, None)
+    rig = get_rig(rig_obj)
+    terms, fit = getattr(rig, "terms", None), getattr(job, "fit", None)
+    weights_fit = fit() if fit is not None else None
+    if (out.suffix.lower() == ".glb" and weights_fit is not None and terms
+            and take_export.can_write_clip(rig_obj, EXPORT_ROLES, terms, weights_fit.names)):
+        clip = take_export.clip_of_bake(rig_obj, EXPORT_ROLES, out.stem, weights_fit, job.table,
+                                        scene_fps(bpy.context.scene), terms, rig.control_specs(),
+                                        engine_take.head, 0)
+        return take_export.write_take_glb(bpy.context, rig_obj, out, EXPORT_ROLES, clip, job.targets_key())
+    return save_or_export(bpy.context, rig_obj, out, EXPORT_ROLES)
 
 
 def phoneme_cells(take, limit: int = 40) -> list:
@@ -90,11 +111,11 @@ def phoneme_cells(take, limit: int = 40) -> list:
 
 def _write_outputs(rig_obj, take, out: Path, sheet_path: Path | None, progress, source_audio=None,
                    view: str = "front", extra_sheets=(), live_link: Path | None = None,
-                   write_wav: bool = True, cues: Path | None = None) -> list[Path]:
+                   write_wav: bool = True, cues: Path | None = None, baked=None) -> list[Path]:
     from ...faces_hands_addon.speech import load_audio, save_wav
     paths = []
     wav = out.with_suffix(".wav")
-    paths.append(save_or_export(bpy.context, rig_obj, out, EXPORT_ROLES))
+    paths.append(_save_take(rig_obj, out, baked))
     if write_wav:
         with atomic_output(wav) as tmp:
             if source_audio is not None:
@@ -149,10 +170,10 @@ def run_line(spec: dict, rig_path, fps, progress, engine_rig=None) -> list[Path]
     take = perform(take, style=spec.get("style"), seed=int(spec.get("seed") or 0), emotion=emotion,
                    loudness=bool(spec.get("audio")))
     rig_obj = _prepare_rig(rig_path, fps, progress, engine_rig)
-    _bake_take(rig_obj, take, progress, spec["animation"])
+    baked = _bake_take(rig_obj, take, progress, spec["animation"])
     return _write_outputs(rig_obj, take, out, sheet_path, progress, spec.get("audio"), spec["view"],
                           spec.get("extra_sheets", ()), spec.get("live_link"), spec.get("wav", True),
-                          spec.get("cues"))
+                          spec.get("cues"), baked)
 
 
 def shared_default_rig(folder: str, fps: float, progress, which: str | None = None) -> str:

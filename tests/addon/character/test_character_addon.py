@@ -163,3 +163,71 @@ def test_head_turn_retargets_onto_a_mixamo_skeleton(character):
         np.array(body.parent.data.bones["head"].matrix_local)[:3, :3].T
     np.testing.assert_allclose(turned, source, atol=1e-4)
     assert np.degrees(np.arccos((np.trace(turned) - 1) / 2)) > 10
+
+
+def test_a_takes_glb_from_the_still_export_and_the_engines_clip_is_blenders_export(character, tmp_path):
+    """A take on the character written as its still GLB plus the bake's clip (``adapters.take_export``, no
+    per-frame sampling) against Blender's own exporter sampling the same scene: the same nodes at the same
+    rest, the same morph targets, the same key times, the skin's weights bit for bit, the neck and head
+    bones' rotations to 0.005 degrees, and no other joint moving in Blender's file. A head turn the
+    clip left out, or a weight put on the wrong target, fails here."""
+    bpy, body = character
+    performance = addon_module("faces_hands_addon.performance")
+    perform, take_of = performance.perform, performance.take_of
+    take_from_text = addon_module("faces_hands_addon.speech.takes").take_from_text
+    services = addon_module("operators.speech.services")
+    apply = addon_module("operators.speech.apply")
+    bake = addon_module("operators.bases.bake")
+    jobs = addon_module("operators.bases.jobs")
+    export = addon_module("operators.adapters.export")
+    roles = addon_module("operators.face.objects").EXPORT_ROLES
+    if body.animation_data is not None:
+        body.animation_data.action = None                       # an earlier test's keys
+    scene = bpy.context.scene
+    scene.render.fps, scene.render.fps_base = 30, 1.0
+    scene.frame_start = 0
+    take = perform(take_from_text("Well, maybe not.", fps=30.0), style="expressive", seed=4)
+    apply.apply_take(scene, body, take, start_frame=0)
+    scene.frame_end = int(np.ceil(take.duration * 30))
+    engine_take = take_of(take)
+    assert len(engine_take.head) and max(np.ptp(t.values) for t in engine_take.head) > 0.01
+    targets = {"jawOpen": {"jaw_open": 1.0}, "mouthClose": {"orbicularis_oris_upper": 1.0}}
+    job = bake.WeightsBakeJob.of_object(bpy.context, body, targets, roles, correctives=False,
+                                        take=(engine_take, 0))
+    jobs.run_job(job, bpy.context)
+    ours = services._save_take(body, tmp_path / "take.glb", (job, engine_take))
+    theirs = export.save_or_export(bpy.context, body, tmp_path / "blender.glb", roles,
+                                   export.ExportOptions(clip="take"))
+    (doc, ours_at), (ref, ref_at) = _glb(ours), _glb(theirs)
+    assert len(doc["animations"][0]["channels"]) == 3          # the skin's weights, neck_01 and head
+
+    def clip(document, accessor):
+        names = [n.get("name") for n in document["nodes"]]
+        animation = document["animations"][0]
+        return animation["name"], {(names[c["target"]["node"]], c["target"]["path"]): (
+            accessor(animation["samplers"][c["sampler"]]["input"]).ravel(),
+            accessor(animation["samplers"][c["sampler"]]["output"])) for c in animation["channels"]}
+    name, channels = clip(doc, ours_at)
+    ref_name, ref_channels = clip(ref, ref_at)
+    assert name == ref_name == "take"
+    assert [n.get("name") for n in doc["nodes"]] == [n.get("name") for n in ref["nodes"]]
+    for node, ref_node in zip(doc["nodes"], ref["nodes"]):
+        assert {k: node.get(k) for k in ("translation", "rotation", "scale")} == \
+               {k: ref_node.get(k) for k in ("translation", "rotation", "scale")}
+    assert doc["meshes"][0]["extras"]["targetNames"] == ref["meshes"][0]["extras"]["targetNames"]
+    for key, (times, values) in channels.items():
+        ref_times, ref_values = ref_channels[key]
+        assert np.array_equal(times, ref_times), key
+        if key[1] == "weights":
+            assert np.array_equal(values, ref_values)
+        else:
+            # Blender keeps the head's keys as float32 (frame, value) pairs and interpolates those; the clip
+            # samples the take's float64 track: 2e-5 of a unit quaternion is 0.002 degrees
+            np.testing.assert_allclose(values, ref_values, atol=5e-5, err_msg=str(key))
+    assert np.ptp(channels[("head", "rotation")][1], axis=0).max() > 1e-3   # the head does turn
+    names = [n.get("name") for n in ref["nodes"]]
+    for key, (_, values) in ref_channels.items():
+        if key not in channels:
+            rest = ref["nodes"][names.index(key[0])].get(
+                key[1], {"rotation": [0, 0, 0, 1], "translation": [0, 0, 0], "scale": [1, 1, 1]}[key[1]])
+            np.testing.assert_allclose(values, np.broadcast_to(rest, values.shape), atol=1e-6, err_msg=str(key))

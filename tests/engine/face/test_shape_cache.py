@@ -91,3 +91,31 @@ def test_an_expression_met_twice_is_settled_once(rig, tmp_path, monkeypatch, thr
     first, twin = shapes[0].pose.positions["skin"], shapes[2].pose.positions["skin"]
     assert np.array_equal(first, twin) and first is not twin
     assert not np.array_equal(first, shapes[1].pose.positions["skin"])
+
+
+def test_entries_read_once_are_kept_in_memory_while_their_file_is_unchanged(rig, tmp_path, monkeypatch):
+    """A jobs worker bakes every line with the same targets: the second lookup in the process reads no
+    file; the kept copy is byte-identical and a private copy (a caller writing into it changes nothing);
+    an entry whose file was replaced or removed is read again (or missed), never answered from memory."""
+    from faces_hands_addon.anim import shape_cache
+    cache = ShapeCache(tmp_path)
+    fresh = _arrays(baking.expression_shapes(rig, EXPRESSIONS, cache=cache))
+    reads = []
+    plain = shape_cache._read_file
+    monkeypatch.setattr(shape_cache, "_read_file", lambda path: reads.append(path) or plain(path))
+    again = ShapeCache(tmp_path)
+    shapes = list(baking.expression_shapes(rig, EXPRESSIONS, cache=again))
+    assert (again.hits, again.misses, reads) == (2, 0, [])
+    assert _arrays(shapes) == fresh
+    shapes[0].pose.positions["skin"][:] = 0.0                      # the caller's copy only
+    assert _arrays(baking.expression_shapes(rig, EXPRESSIONS, cache=ShapeCache(tmp_path))) == fresh
+    entry = sorted(tmp_path.glob("*.npz"))[0]
+    entry.write_bytes(entry.read_bytes()[:100])                     # replaced behind the process's back
+    third = ShapeCache(tmp_path)
+    assert _arrays(baking.expression_shapes(rig, EXPRESSIONS, cache=third)) == fresh
+    assert reads == [entry] and third.misses == 1
+    for path in tmp_path.glob("*.npz"):
+        path.unlink()
+    gone = ShapeCache(tmp_path)
+    list(baking.expression_shapes(rig, EXPRESSIONS, cache=gone))
+    assert (gone.hits, gone.misses) == (0, 2)
