@@ -134,11 +134,11 @@ class CharacterRig:
             moving = self._hand_moving(side, values)
             if moving or not self._hand_idle[side]:
                 names = self._hand_names[side]
-                pose = self.hand(side).step(_subset(layer_values, names, names), dt)
+                turns = self.hand(side).step_bones(_subset(layer_values, names, names), dt)   # the body skins it
                 last = self._hand_last.get(side, {})
-                still = bool(last) and all(np.allclose(pose.transforms[b], last[b], atol=IDLE_TURN) for b in last)
-                self._hand_idle[side], self._hand_last[side] = not moving and still, pose.transforms
-                hand_turns[side] = pose.transforms
+                still = bool(last) and all(np.allclose(turns[b], last[b], atol=IDLE_TURN) for b in last)
+                self._hand_idle[side], self._hand_last[side] = not moving and still, turns
+                hand_turns[side] = turns
         return self._pose(face_pose, values, hand_turns)
 
     def settled(self, layer_values: LayerValues, max_time: float = 1.5, dt: float = 1 / 24) -> Pose:

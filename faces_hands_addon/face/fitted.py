@@ -234,6 +234,7 @@ class FittedFaceRig(FaceRig):
         self.face.bone_guard.keep_own_bones(refuse=under_ledge)
         self.fitted = head
         self.head_to_mesh = head.head_to_mesh.copy()
+        self._mesh_to_head = np.linalg.inv(self.head_to_mesh)      # once: LAPACK's 4x4 inverse cost ~1 ms a tick
         self.warnings = list(head.warnings)
         self._linear = head.head_to_mesh[:3, :3].copy()
         self._passive_rest = head.head_vertices[head.passive]
@@ -288,7 +289,7 @@ class FittedFaceRig(FaceRig):
 
     def rigid_transforms(self) -> dict[str, np.ndarray]:
         """4x4 matrices in mesh coordinates, applied to the (mesh-coordinate) rest meshes of the parts."""
-        forward, back = self.head_to_mesh, np.linalg.inv(self.head_to_mesh)
+        forward, back = self.head_to_mesh, self._mesh_to_head
         return {name: np.eye(4) if np.array_equal(m, np.eye(4)) else forward @ m @ back
                 for name, m in super().rigid_transforms().items()}
 

@@ -194,6 +194,21 @@ class HandRig:
         return self.sides.apply(target, transforms)
 
     def step_frame(self, dt: float = 1 / 30) -> None:
+        contraction = self._advance_joints(dt)
+        self._advance_skin(contraction, dt)
+
+    def step_bones(self, layer_values: LayerValues, dt: float) -> dict[str, np.ndarray]:
+        """:meth:`step` for a host that skins the hand itself (a character's armature): the joints, their
+        limits and contacts advance as in :meth:`step` (6.2.2; the skin never moves a bone), the skin is not
+        simulated; returns the bone transforms of :meth:`pose`."""
+        self.controls = mix(layer_values, self.specs)
+        self._advance_joints(dt)
+        self.time += dt
+        transforms = self._mirrored(self.contact.transforms(self.pseudo.angles))
+        return {name: transforms[b] for b, name in enumerate(self.skeleton.names)}
+
+    def _advance_joints(self, dt: float) -> np.ndarray:
+        """The joints one frame on (pseudo muscles, then finger and thumb contact); returns the contractions."""
         if not (dt > 0 and np.isfinite(dt)):
             raise UserError("the frame time step must be a positive number of seconds")
         contraction = self.contraction_vector()
@@ -202,7 +217,7 @@ class HandRig:
         self.contact.resolve()
         angles = self.pseudo.angles
         self.contact.keep(angles, self.thumb_contact.resolve(self.contact.transforms(angles), before))
-        self._advance_skin(contraction, dt)
+        return contraction
 
     def _advance_skin(self, contraction: np.ndarray, dt: float) -> None:
         """One frame of the skin (6.2.1: the bones carry the skin, the springs deform it). The skin is carried

@@ -285,3 +285,21 @@ def test_a_pose_squeeze_is_checked_like_its_contractions(rig, tmp_path, squeeze,
             motion.pose_stages("fist", rig.muscle_names)
     finally:
         presets.set_user_folder(before)
+
+
+def test_stepping_the_bones_alone_turns_them_as_the_whole_step_does(rig):
+    """A host that skins the hand itself (the character) steps the joints without the skin: frame by frame
+    the same bone transforms as the full step (the skin never moves a bone), for a fist closing into the
+    palm (finger contact) and opening again."""
+    fist = motion.pose_contractions("fist", list(rig.specs))
+    whole, bones = rig.worker_copy(), rig.worker_copy()
+    whole.reset()
+    bones.reset()
+    for frame in range(40):
+        values = {"ctrl": fist if frame < 25 else {}}
+        expected = whole.step(values, 1 / 30).transforms
+        turned = bones.step_bones(values, 1 / 30)
+        assert turned.keys() == expected.keys()
+        for name, matrix in expected.items():
+            assert np.array_equal(turned[name], matrix), (frame, name)
+    assert max(abs(whole.pseudo.angles)) > 0.3 and whole.time == bones.time
