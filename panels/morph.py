@@ -12,8 +12,8 @@ from .base import ROOT, SidebarPanel
 from ..names import MORPH_EXAMPLES, MORPH_HISTORY, MORPH_MARKER, MORPH_STATE
 
 THUMBNAILS = 12
-ABOUT = ("Default model: learned from a synthetic population sampled from published facial norms; "
-         "no substitute for scans")
+ABOUT = ("Default model: whole heads made from MakeHuman's CC0 target"
+         "s on the character's mesh; no substitute for scans")
 
 
 def morph_object(context):

@@ -45,12 +45,15 @@ def parse_setting(text: str) -> tuple[list[str], str, float, str]:
 
 class Morph:
     INPUTS = ("model",)
+    INPUT_WORDS = {"model": ("mask",)}
     NAME = "morph"
     HELP = "create a face from a morphable model (attributes, constraints, caricature) and save .glb/.fbx/.blend"
 
     @staticmethod
     def add_arguments(parser):
-        parser.add_argument("--model", default="default", help="model file (.npz, .mat, .h5, .bin) or 'default'")
+        parser.add_argument("--model", default="default",
+                            help="model file (.npz, .mat, .h5, .bin), 'default' (whole heads on the character's "
+                                 "topology) or 'mask' (the synthetic 468-vertex face mask)")
         parser.add_argument("--face", choices=("average", "random", "example"), default=None,
                             help="start face (default: average; random when --seed is given)")
         parser.add_argument("--seed", type=int, default=None, help="seed of the random start face")
@@ -64,6 +67,11 @@ class Morph:
         parser.add_argument("--caricature", dest="caricature", action=_Ordered, metavar="LEVEL",
                             help="caricature level (1 = unchanged)")
         parser.add_argument("--sheet", help="also render a contact sheet (.png) of the demo cells")
+        parser.add_argument("--sheet-cells", choices=tuple(sheet.SHEETS), default="demo",
+                            help="what the contact sheet shows: the demo cells, 12 random people, or every "
+                                 "attribute at -2 / 0 / +2")
+        parser.add_argument("--sheet-view", choices=tuple(sheet.VIEWS), default="front", help="view of the sheet")
+        parser.add_argument("--sheet-columns", type=int, default=6, help="cells per row of the sheet")
         parser.add_argument("--save-face", help="also save the face as JSON")
         parser.add_argument("--out", required=True, help="output .glb, .fbx or .blend")
 
@@ -91,7 +99,8 @@ class Morph:
         if args.sheet:
             progress(0.3, "rendering the contact sheet")
             with atomic_output(extra[0]) as tmp:
-                sheet.render_sheet(bpy.context, obj, sheet.demo_cells(face.model), tmp, progress=progress)
+                sheet.render_sheet(bpy.context, obj, sheet.SHEETS[args.sheet_cells](face.model), tmp,
+                                   columns=max(1, args.sheet_columns), progress=progress, view=args.sheet_view)
             outputs.append(extra[0])
         if args.save_face:
             outputs.append(services.save_face(obj, args.save_face))

@@ -17,6 +17,7 @@ import numpy as np
 from ...faces_hands_addon.core.errors import UserError
 from ...faces_hands_addon.core.foreign_files import read_text
 from ...faces_hands_addon.morph.editing import EditFace, face_from_state
+from ...faces_hands_addon.morph.heads import TOPOLOGY as HEAD_TOPOLOGY, albedo as head_albedo
 from ...faces_hands_addon.morph.segments import hierarchy_order
 from ..adapters.materials import enable_nodes
 from ..adapters.meshes import mesh_from_arrays, object_from_mesh
@@ -29,6 +30,7 @@ MODEL_KEY, STATE_KEY, EXAMPLES_KEY, HISTORY_KEY = MORPH_MODEL, MORPH_STATE, MORP
 ALBEDO = "FH Albedo"
 MASK = "FH Segments"
 DEFAULT = "default"
+MASK_MODEL = "mask"
 MAX_FACE_BYTES = 50_000_000      # a saved face is its edit history: kilobytes
 
 _models: dict[str, object] = {}
@@ -36,12 +38,17 @@ _faces: dict[int, tuple[str, EditFace]] = {}
 
 
 def model_for(source: str = DEFAULT):
-    """The model of ``source`` (``default`` or a model file), loaded once per session."""
+    """The model of ``source`` (``default``: the whole heads on the character's topology; ``mask``: the
+    synthetic 468-vertex face mask; or a model file), loaded once per session."""
     if source in _models:
         return _models[source]
-    key = DEFAULT if source in ("", DEFAULT) else str(Path(bpy.path.abspath(source)).resolve())
+    key = source if source in ("", DEFAULT, MASK_MODEL) else str(Path(bpy.path.abspath(source)).resolve())
+    key = key or DEFAULT
     if key not in _models:
         if key == DEFAULT:
+            from ...faces_hands_addon.morph.heads import head_model
+            _models[key] = head_model()
+        elif key == MASK_MODEL:
             from ...faces_hands_addon.morph.population import default_model
             _models[key] = default_model()
         else:
@@ -84,7 +91,7 @@ def create_face_object(context, source: str = DEFAULT, kind: str = "average", se
     mesh = mesh_from_arrays(name, face.shape, model.triangles, model.uvs)
     obj = object_from_mesh(mesh, context.scene.collection, name)
     obj[MORPH_MARKER] = 1
-    obj[MODEL_KEY] = DEFAULT if source in ("", DEFAULT) else source
+    obj[MODEL_KEY] = source or DEFAULT
     obj[EXAMPLES_KEY] = json.dumps([[i, name, labels] for i, (name, labels)
                                     in enumerate(zip(model.example_names, model.example_labels))])
     mesh.color_attributes.new(ALBEDO, "FLOAT_COLOR", "POINT")
@@ -119,9 +126,12 @@ def write_face(obj, face: EditFace) -> None:
     if len(mesh.vertices) != face.model.vertex_count:
         raise UserError(f"'{obj.name}' has {len(mesh.vertices)} vertices; its model has {face.model.vertex_count}")
     mesh.attributes["position"].data.foreach_set("vector", np.ascontiguousarray(face.shape, np.float32).ravel())
-    if face.colour is not None and ALBEDO in mesh.color_attributes:
-        rgba = np.ones((len(face.colour), 4), np.float32)
-        rgba[:, :3] = np.clip(face.colour, 0.0, 1.0)
+    colour = face.colour
+    if colour is None and face.model.info.get("topology") == HEAD_TOPOLOGY:
+        colour = head_albedo(face.model)
+    if colour is not None and ALBEDO in mesh.color_attributes:
+        rgba = np.ones((len(colour), 4), np.float32)
+        rgba[:, :3] = np.clip(colour, 0.0, 1.0)
         mesh.color_attributes[ALBEDO].data.foreach_set("color", rgba.ravel())
     mesh.update()
     state = json.dumps(face.state(), sort_keys=True)
@@ -233,7 +243,8 @@ def make_animatable(context, obj, name: str | None = None):
     are the landmarks (no registration); a copy of the mesh becomes the rig's skin."""
     face = face_of(obj)
     if face.model.info.get("topology") != "mediapipe_canonical_468":
-        raise UserError("Make Animatable needs a face on the MediaPipe topology (the default model)")
+        raise UserError("Make Animatable needs a face on the MediaPipe topology (the 'mask' model); a head of the "
+                        "character's topology is animated through the character (build-character)")
     from ...faces_hands_addon.face.fitted import build_fitted_rig
     world = np.asarray(obj.matrix_world, np.float64)
     vertices = face.shape @ world[:3, :3].T + world[:3, 3]

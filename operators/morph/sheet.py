@@ -136,3 +136,21 @@ def demo_cells(model) -> list[Cell]:
     cells.append(("random (seed 3)", [("create", ("random", 3), {})]))
     cells.append(("its caricature x2", [("create", ("random", 3), {}), ("caricature", (2.0,), {})]))
     return cells + fig_3_8_cells()[1:]
+
+
+def people_cells(model, count: int = 12) -> list[Cell]:
+    """``count`` random people of the model (seeds 1..count)."""
+    return [(f"random {seed}", [("create", ("random", seed), {})]) for seed in range(1, count + 1)]
+
+
+def attribute_cells(model, values=(-2.0, 0.0, 2.0)) -> list[Cell]:
+    """Every attribute of the model at each of ``values`` (shape), on the average face, by Table 5.2
+    category."""
+    order = list(model.info.get("categories", [])) or sorted({a.category for a in model.attributes.values()})
+    names = sorted(model.attributes, key=lambda n: (order.index(model.attributes[n].category)
+                                                    if model.attributes[n].category in order else len(order), n))
+    return [(f"{name} {value:+.0f}", [("set_attribute", (name, value, "shape"), {})] if value else [])
+            for name in names for value in values]
+
+
+SHEETS = {"demo": demo_cells, "people": people_cells, "attributes": attribute_cells}
