@@ -1,8 +1,8 @@
 """The morphable model of whole heads (thesis 3.2, chapter 5), measured:
 
 * **slider_ms**: time per slider change (5.1.4: "an immediate update of the displayed face"): attribute
-  update + constraint solve (Eq. 3.6, one constraint) + writing the vertices into Blender, on the default
-  model (the character's whole head), median; also on the synthetic mask and on a random model of 50,000
+  update + constraint solve (Eq. 3.6, one constraint) + writing the vertices into Blender (the head object
+  and the linked character body's shape key), on the default model (the character's whole head), median; also on the synthetic mask and on a random model of 50,000
   vertices with 199 components;
 * **attribute_monotonic_pct**: on the HELD-OUT heads (``out/head_model_heldout.npz``, written by
   ``scripts/build_head_model.py``: heads of the same sampler that never entered the PCA nor the attributes),
@@ -134,9 +134,15 @@ for name, (ok, span) in sorted(table.items()):
 folds, worst, reached = caricature_folds(model)
 print(f"caricature x2/x3/x5 of 30 random faces: {folds} folded triangles, largest Mahalanobis norm "
       f"{worst:.3f} of the radius, mean level reached {reached:.2f}")
+character = importlib.import_module(f"{_harness.blender_env.MODULE}.faces_hands_addon.character.body")
+body_mesh = importlib.import_module(f"{_harness.blender_env.MODULE}.operators.character.objects").body_mesh
+body = bpy.data.objects.new("FH Character Body", body_mesh("FH Character Body", character.character_mesh()))
+bpy.context.scene.collection.objects.link(body)
+services.link_character(default, body)
 default_ms, default_first = time_slider(default, "thin-full lips", "masculine-feminine")
 ui_ms = time_ui_slider(default, "short-long nose")
-print(f"head model: {model.vertex_count} vertices, {model.shape.components} shape components: {default_ms:.3f} ms per "
+print(f"head model: {model.vertex_count} vertices, {model.shape.components} shape components, written into the head "
+      f"and into the character's {len(body.data.vertices)}-vertex body (shape key): {default_ms:.3f} ms per "
       f"slider change (one constraint; first change {default_first:.1f} ms); through the panel's slider "
       f"{ui_ms:.3f} ms")
 mask = services.create_face_object(bpy.context, services.MASK_MODEL)

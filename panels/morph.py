@@ -74,6 +74,7 @@ class FH_PT_morph(SidebarPanel, bpy.types.Panel):
         row.operator("faces_hands.morph_add_detail", icon="TEXTURE").factor = settings.detail_factor
         row.prop(settings, "detail_factor", text="")
         layout.operator("faces_hands.morph_make_animatable", icon="ARMATURE_DATA")
+        layout.operator("faces_hands.morph_link_character", icon="OUTLINER_OB_ARMATURE")
 
 
 class FH_PT_morph_attributes(SidebarPanel, bpy.types.Panel):

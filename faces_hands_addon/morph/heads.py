@@ -30,11 +30,12 @@ from .editing import folded_against
 from .model import MorphableModel, load_native
 
 __all__ = ["HEAD_MODEL_FILE", "TOPOLOGY", "MEASURES", "head_model", "check_head_model", "find_landmarks",
-           "measures", "albedo", "character_vertices", "folded_triangles", "mahalanobis_radius"]
+           "measures", "albedo", "character_ids", "character_vertices", "folded_triangles", "mahalanobis_radius"]
 
 HEAD_MODEL_FILE = ASSETS_DIR / "morph" / "mpfb2_heads.npz"
 TOPOLOGY = "mpfb2_hm08_head"
 MM = 1000.0
+BASE_VERTICES = 19158          # the MPFB2 base mesh (hm08)
 #: measure -> what it is (mm unless said): each an attribute's rating (``info["attributes"]``)
 MEASURES = {
     "jaw_width": "bigonial width: gonion to gonion",
@@ -249,17 +250,27 @@ def albedo(model: MorphableModel) -> np.ndarray:
 
 
 # ------------------------------------------------------------------------------------------ the character
-def character_vertices(model: MorphableModel, character_base_index: np.ndarray, character: np.ndarray,
-                       head: np.ndarray) -> np.ndarray:
-    """The character's vertices (k, 3) with its head replaced by ``head`` (the model's (n, 3) vertices);
-    ``character_base_index`` gives each character vertex's base-mesh id. Refused when the character lacks
-    a vertex of the model."""
+def character_ids(model: MorphableModel, character_base_index: np.ndarray) -> np.ndarray:
+    """The character's vertex id of each model vertex, given each character vertex's base-mesh id;
+    refused when the character lacks one (another topology)."""
+    base = np.asarray(character_base_index, np.int64)
     ids = np.asarray(model.info["base_ids"], np.int64)
-    lookup = {int(b): k for k, b in enumerate(np.asarray(character_base_index, np.int64))}
-    local = np.array([lookup.get(int(b), -1) for b in ids])
+    if base.ndim != 1 or (len(base) and (base.min() < 0 or base.max() >= BASE_VERTICES)):
+        raise UserError("the character's base-mesh ids are not ids of the MPFB2 base mesh")
+    lookup = np.full(BASE_VERTICES, -1, np.int64)
+    lookup[base] = np.arange(len(base))
+    local = lookup[ids]
     if (local < 0).any():
         raise UserError(f"the character lacks {int((local < 0).sum())} of the head model's vertices; it is not "
                         "the default character's topology")
+    return local
+
+
+def character_vertices(model: MorphableModel, character_base_index: np.ndarray, character: np.ndarray,
+                       head: np.ndarray, local: np.ndarray | None = None) -> np.ndarray:
+    """The character's vertices (k, 3) with its head replaced by ``head`` (the model's (n, 3) vertices);
+    ``character_base_index`` gives each character vertex's base-mesh id (:func:`character_ids`)."""
+    local = character_ids(model, character_base_index) if local is None else local
     out = np.array(character, np.float64, copy=True)
     out[local] = np.asarray(head, np.float64).reshape(-1, 3)
     return out

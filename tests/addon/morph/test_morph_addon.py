@@ -266,3 +266,44 @@ def test_new_face_with_a_bad_model_file_changes_nothing(bpy_clean, tmp_path):
         with pytest.raises(RuntimeError, match=message):
             bpy.ops.faces_hands.morph_new_face()
         assert (sorted(o.name for o in bpy.data.objects), len(bpy.data.meshes)) == before
+
+
+def test_a_morph_head_reshapes_the_characters_head(bpy_clean):
+    bpy = bpy_clean
+    body_mesh = addon_module("operators.character.objects").body_mesh
+    character = addon_module("faces_hands_addon.character.body").character_mesh()
+    services = addon_module("operators.morph.services")
+    body = bpy.data.objects.new("Body", body_mesh("Body", character))
+    bpy.context.scene.collection.objects.link(body)
+    head = _new(bpy, model="", kind="random", seed=3)
+    model = services.face_of(head).model
+    local = addon_module("faces_hands_addon.morph.heads").character_ids(model, character.base_index)
+    wrong = bpy.data.objects.new("Wrong", bpy.data.meshes.new("Wrong"))
+    wrong.data.vertices.add(12)
+    bpy.context.scene.collection.objects.link(wrong)
+    for other, message in ((wrong, "not the character's topology"), (None, "select the character's body")):
+        for o in bpy.context.selected_objects:
+            o.select_set(False)
+        if other is not None:
+            other.select_set(True)
+        head.select_set(True)
+        bpy.context.view_layer.objects.active = head
+        with pytest.raises(RuntimeError, match=message):
+            bpy.ops.faces_hands.morph_link_character()
+        assert body.data.shape_keys is None and not head.get("fh_morph_character")
+    body.select_set(True)
+    assert bpy.ops.faces_hands.morph_link_character() == {"FINISHED"}
+
+    def keyed():
+        out = np.empty(len(body.data.vertices) * 3, np.float32)
+        body.data.shape_keys.key_blocks["FH Morph Head"].data.foreach_get("co", out)
+        return out.reshape(-1, 3)
+    assert np.abs(keyed()[local] - _vertices(head)).max() < 1e-6
+    rest = np.setdiff1d(np.arange(len(character.vertices)), local)
+    assert np.abs(keyed()[rest] - character.vertices[rest]).max() < 1e-6     # the body stays
+    before = keyed().copy()
+    next(i for i in head.faces_hands_morph.sliders if i.name == "narrow-wide jaw").shape = 2.0
+    assert np.abs(keyed()[local] - _vertices(head)).max() < 1e-6 and np.abs(keyed() - before).max() > 1e-3
+    assert bpy.ops.faces_hands.morph_new_face(kind="example", index=4) == {"FINISHED"}   # a new face keeps it
+    example = bpy.context.active_object
+    assert example is not head and np.abs(keyed()[local] - _vertices(example)).max() < 1e-6
