@@ -53,7 +53,9 @@ def _render_tiles(context, obj, cells: list[Cell], cell_size, progress=None, vie
     points = own.model.mean_vertices() @ world[:3, :3].T + world[:3, 3]
     low, high = points.min(axis=0), points.max(axis=0)
     height = float(high[2] - low[2])
-    label = _label(scene, "", ((low[0] + high[0]) / 2, low[1] - 0.02, low[2] - 0.16 * height), 0.075 * height)
+    depth = low[1] - 0.02 if view == "front" else (low[1] + high[1]) / 2
+    label = _label(scene, "", ((low[0] + high[0]) / 2, depth, low[2] - 0.16 * height), 0.075 * height)
+    label.rotation_euler[2] = math.radians(VIEWS[view])          # faces the camera of the view
     tmp_dir = Path(tempfile.mkdtemp(prefix="fh-morph-sheet-"))
     below = 0.22 * height if labelled else 0.02 * height
     tiles = []
