@@ -115,20 +115,25 @@ def render_thumbnails(context, obj, indices, size: int = 96) -> list:
 
 
 MASCULINE, BROWS = "masculine-feminine", "eyebrows-eyes distance"
+BROW_RIDGE = "flat-prominent brow ridge"      # the head model's stand-in for the brows of Fig. 3.8
 
 
-def fig_3_8_cells(masculine: float = -1.5, brows: float = 1.5) -> list[Cell]:
-    """The Fig. 3.8 experiment: masculine; higher eyebrows; both added; both with masculinity constrained."""
+def fig_3_8_cells(masculine: float = -1.5, brows: float = 1.5, second: str = BROWS) -> list[Cell]:
+    """The Fig. 3.8 experiment: masculine; a second attribute (higher eyebrows); both added; both with
+    masculinity constrained."""
+    short = "brows" if second == BROWS else second.split()[-1]
     return [("average", []),
             (f"masculine {masculine:+.1f}", [("set_attribute", (MASCULINE, masculine), {})]),
-            (f"brows {brows:+.1f}", [("set_attribute", (BROWS, brows), {})]),
-            ("masc., then brows", [("set_attribute", (MASCULINE, masculine), {}), ("set_attribute", (BROWS, brows), {})]),
-            ("masc. kept, brows", [("set_attribute", (MASCULINE, masculine), {}), ("constrain", (MASCULINE,), {}),
-                                   ("set_attribute", (BROWS, brows), {})])]
+            (f"{short} {brows:+.1f}", [("set_attribute", (second, brows), {})]),
+            (f"masc., then {short}", [("set_attribute", (MASCULINE, masculine), {}),
+                                      ("set_attribute", (second, brows), {})]),
+            (f"masc. kept, {short}", [("set_attribute", (MASCULINE, masculine), {}), ("constrain", (MASCULINE,), {}),
+                                      ("set_attribute", (second, brows), {})])]
 
 
 def demo_cells(model) -> list[Cell]:
-    """Average, +-2 on a few attributes, a caricature of a random face, and the Fig. 3.8 experiment."""
+    """Average, +-2 on a few attributes, a caricature of a random face, and the Fig. 3.8 experiment (with the
+    brow ridge where the model has no eyebrow attribute)."""
     cells: list[Cell] = [("average", [])]
     for name in ("masculine-feminine", "slender-obese", "narrow-wide", "dark-light skin", "younger-older"):
         if name in model.attributes:
@@ -137,7 +142,12 @@ def demo_cells(model) -> list[Cell]:
                 cells.append((f"{name} {value:+.0f}", [("set_attribute", (name, value, part), {})]))
     cells.append(("random (seed 3)", [("create", ("random", 3), {})]))
     cells.append(("its caricature x2", [("create", ("random", 3), {}), ("caricature", (2.0,), {})]))
-    return cells + fig_3_8_cells()[1:]
+    if MASCULINE not in model.attributes:
+        return cells
+    second = BROWS if BROWS in model.attributes else BROW_RIDGE
+    if second not in model.attributes:
+        return cells
+    return cells + fig_3_8_cells(second=second)[1:]
 
 
 def people_cells(model, count: int = 12) -> list[Cell]:
