@@ -8,6 +8,7 @@ import argparse
 from pathlib import Path
 
 import bpy
+import numpy as np
 
 from ...faces_hands_addon.core.errors import UserError
 from ..adapters.export import ExportOptions, save_or_export
@@ -72,6 +73,9 @@ class Morph:
                                  "attribute at -2 / 0 / +2")
         parser.add_argument("--sheet-view", choices=tuple(sheet.VIEWS), default="front", help="view of the sheet")
         parser.add_argument("--sheet-columns", type=int, default=6, help="cells per row of the sheet")
+        parser.add_argument("--character", action="store_true",
+                            help="write the default character's body with this head (the model's head written "
+                                 "into the character's mesh; models of the character's topology only)")
         parser.add_argument("--save-face", help="also save the face as JSON")
         parser.add_argument("--out", required=True, help="output .glb, .fbx or .blend")
 
@@ -104,6 +108,8 @@ class Morph:
             outputs.append(extra[0])
         if args.save_face:
             outputs.append(services.save_face(obj, args.save_face))
+        if args.character:
+            obj = _character_with(obj)
         _write(obj, out)
         print(written(outputs))
         return 0
@@ -120,6 +126,24 @@ def _step(face, flag: str, value: str) -> None:
             face.caricature(float(value))
         except ValueError:
             raise UserError(f"--caricature {value!r} is not a number") from None
+
+
+def _character_with(obj):
+    """The default character's body (a plain mesh) with the face's head written into it; the head object
+    goes (the output is the character)."""
+    from ...faces_hands_addon.character.body import character_mesh
+    from ..character.objects import body_mesh
+    body = bpy.data.objects.new("FH Character", body_mesh("FH Character", character_mesh()))
+    bpy.context.scene.collection.objects.link(body)
+    services.link_character(obj, body)
+    coords = np.empty(len(body.data.vertices) * 3, np.float32)
+    body.data.shape_keys.key_blocks[services.HEAD_KEY].data.foreach_get("co", coords)
+    body.shape_key_clear()
+    body.data.attributes["position"].data.foreach_set("vector", coords)
+    body.data.update()
+    bpy.data.objects.remove(obj)
+    print(f"  the head written into the character's body ({len(body.data.vertices)} vertices)")
+    return body
 
 
 def _write(obj, out) -> None:

@@ -188,6 +188,16 @@ def test_cli_set_is_absolute_on_the_head_model(installed, tmp_path):
     kept = re.search(r"constraint masculine-feminine: shape \S+, now (\S+)", result.stdout)
     assert kept and abs(float(kept.group(1))) < 1e-6, result.stdout     # 0 from a random face, kept
     assert out.read_bytes()[:4] == b"glTF"
+    body = tmp_path / "character.glb"
+    result = run_fh(installed, "morph", "--seed", "2", "--character", "--out", body)
+    assert result.returncode == 0, result.stderr
+    data = body.read_bytes()
+    length = int.from_bytes(data[12:16], "little")
+    gltf = json.loads(data[20:20 + length])
+    positions = [p["attributes"]["POSITION"] for m in gltf["meshes"] for p in m["primitives"]]
+    assert sum(gltf["accessors"][i]["count"] for i in positions) >= 13886          # the whole body
+    result = run_fh(installed, "morph", "--model", "mask", "--character", "--out", tmp_path / "no.glb")
+    assert result.returncode == 1 and "topology" in result.stderr and not (tmp_path / "no.glb").exists()
 
 
 def test_thumbnails_of_filtered_examples(bpy_clean):
