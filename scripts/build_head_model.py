@@ -85,6 +85,15 @@ ATTRIBUTES = {
     "thin-full lips": ("mouth", "lip_ratio", 1.0),
     "small-large ears": ("ears", "ear_ratio", 1.0),
 }
+#: Table 5.2 attributes this model does not learn, and why
+OMITTED = {
+    "ethnicity (Caucasian, Asian, African)": "only the target weights that made a head give its mix; nothing on "
+                                             "the mesh measures it, and ratings must be measured",
+    "colour (skin, freckles, beard, lips, eyebrows, iris)": "no colour model: the heads are shapes",
+    "eyebrows": "the base mesh has no brow geometry",
+    "attractiveness": "no ratings of real observers",
+    "expressions": "the heads are neutral; expressions come from the face rig",
+}
 #: segment (Table 5.1 features, on the whole head) -> target folders whose vertices it holds
 SEGMENTS = {"eyes": ("eyes", "eyebrows"), "nose": ("nose",), "mouth": ("mouth",), "chin": ("chin",),
             "cheeks": ("cheek",), "forehead": ("forehead",), "ears": ("ears",)}
@@ -275,6 +284,7 @@ def build(source: Source) -> tuple[object, np.ndarray, list[dict]]:
     model.info["attributes"] = {n: {"measure": m, "sign": s} for n, (_, m, s) in ATTRIBUTES.items()}
     model.info["attribute_segments"] = HOME_SEGMENTS
     model.info["categories"] = CATEGORIES
+    model.info["omitted_attributes"] = OMITTED
     model.info["mahalanobis_radius"] = float(np.linalg.norm(model.examples["shape"] / model.shape.sd, axis=1).max())
     sex = np.array([s["phenotype"]["gender"] for s in specs])
     masc = np.array([m["masculinity"] for m in measured])

@@ -65,6 +65,19 @@ def test_a_locked_attribute_is_kept_through_five_other_edits(model):
     assert abs(free.value(MASC) - 1.2) > 0.05               # the edits do move it without the lock
 
 
+def test_the_neck_cut_never_moves(model):
+    """The examples are blended into the unchanged body at the neck, so no face moves the cut ring."""
+    mean = model.mean_vertices()
+    skin = np.setdiff1d(np.arange(model.vertex_count), np.concatenate(list(model.info["parts"].values())))
+    ring = skin[mean[skin, 2] < mean[skin, 2].min() + 0.002]
+    assert len(ring) >= 12
+    face = EditFace(model)
+    face.create("random", seed=9, scale=2.0)
+    face.set_attribute("slender-obese", 2.0)
+    assert np.abs(face.shape[ring] - mean[ring]).max() < 1e-6
+    assert np.abs(face.shape - mean).max() > 0.005
+
+
 def test_caricature_stays_in_the_radius_without_folds(model):
     radius = heads.mahalanobis_radius(model)
     for seed in (1, 3, 7):
