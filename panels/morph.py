@@ -12,8 +12,8 @@ from .base import ROOT, SidebarPanel
 from ..names import MORPH_EXAMPLES, MORPH_HISTORY, MORPH_MARKER, MORPH_STATE
 
 THUMBNAILS = 12
-ABOUT = ("Default model: learned from a synthetic population sampled from published facial norms; "
-         "no substitute for scans")
+ABOUT = ("Default model: whole heads made from MakeHuman's CC0 target"
+         "s on the character's mesh; no substitute for scans")
 
 
 def morph_object(context):
@@ -74,6 +74,7 @@ class FH_PT_morph(SidebarPanel, bpy.types.Panel):
         row.operator("faces_hands.morph_add_detail", icon="TEXTURE").factor = settings.detail_factor
         row.prop(settings, "detail_factor", text="")
         layout.operator("faces_hands.morph_make_animatable", icon="ARMATURE_DATA")
+        layout.operator("faces_hands.morph_link_character", icon="OUTLINER_OB_ARMATURE")
 
 
 class FH_PT_morph_attributes(SidebarPanel, bpy.types.Panel):

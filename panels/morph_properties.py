@@ -70,7 +70,8 @@ class FH_MorphSettings(bpy.types.PropertyGroup):
 
     model_path: bpy.props.StringProperty(
         name="Model", subtype="FILE_PATH", default="",
-        description="Morphable model file (.npz native or FLAME, BFM .mat/.h5, eos .bin); empty: the default model")
+        description="Morphable model file (.npz native or FLAME, BFM .mat/.h5, eos .bin); empty: the default "
+                    "model (whole heads on the character's topology); 'mask': the synthetic 468-vertex face mask")
     seed: bpy.props.IntProperty(name="Seed", default=0, min=0, description="Seed of the random face")
     example: bpy.props.IntProperty(name="Example", default=0, min=0, description="Database example to use")
     filter_sex: bpy.props.EnumProperty(name="Sex", items=SEX_ITEMS, description="Show examples of this sex")

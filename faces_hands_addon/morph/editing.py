@@ -78,6 +78,16 @@ def _finite(value, what: str, limit: float = MAX_VALUE) -> float:
     return value
 
 
+def folded_against(vertices: np.ndarray, reference: np.ndarray, triangles) -> int:
+    """Triangles whose normal turned more than 90 degrees from the reference mesh's (folded over)."""
+    tri = np.asarray(triangles, np.int64)
+
+    def normals(points):
+        p = np.asarray(points, np.float64).reshape(-1, 3)
+        return np.cross(p[tri[:, 1]] - p[tri[:, 0]], p[tri[:, 2]] - p[tri[:, 0]])
+    return int(np.sum(np.einsum("ij,ij->i", normals(vertices), normals(reference)) < 0))
+
+
 def _segment_key(segments) -> tuple[str, ...]:
     return tuple(sorted({s for s in (segments or ()) if s and s != "face"}))
 
@@ -159,6 +169,11 @@ class EditFace:
         return cached
 
     def direction(self, attribute: str, part: str, segments=()) -> tuple[np.ndarray, np.ndarray]:
+        """(vertex displacement, coefficients) of one unit of ``attribute``, restricted to ``segments`` or,
+        when none are given, to the attribute's own segments if the model names them
+        (``info["attribute_segments"]``: a feature's attribute moves that feature, Table 5.1, 5.1.4)."""
+        if not _segment_key(segments):
+            segments = tuple(self.model.info.get("attribute_segments", {}).get(attribute, ()))
         key = (attribute, part, _segment_key(segments))
         return self._restricted(key, self.unit_direction(attribute, part), part, segments)
 
@@ -284,11 +299,40 @@ class EditFace:
         part = op["part"]
         current = self.shape if part == "shape" else self.colour
         deviation = current - self.model.part(part).mean.reshape(-1, 3)
+        ratio = self._bounded(part, ratio, deviation, op["segments"])
         if op["segments"]:
             self._add_displacement(part, (ratio - 1.0) * deviation, op["segments"])
         else:
             self._add(part, deviation, self.coefficients(part).copy(), ratio - 1.0)
-        self.applied[key] = float(op["level"])
+        self.applied[key] = self.applied.get(key, 1.0) * ratio
+
+    def _bounded(self, part: str, ratio: float, deviation: np.ndarray, segments) -> float:
+        """The caricature ratio, lowered where needed so the face stays plausible (3.2.2) for a model that
+        names its range (``info["mahalanobis_radius"]``, the farthest example): a Mahalanobis norm
+        ``||alpha / sigma||`` of at most that radius (the norm of ``alpha + (r - 1) d`` is quadratic in
+        ``r``: the largest ``r`` up to the asked one within the radius is its root; a face already beyond
+        it is not pushed further out), and no triangle folded over against the face it started from
+        (bisection on ``r``). Other models are not bounded."""
+        radius = self.model.info.get("mahalanobis_radius")
+        if not radius or part != "shape" or ratio <= 1.0:
+            return ratio
+        mask = selection_mask(self.model.segments, segments, self.model.vertex_count) if segments else None
+        moved = deviation if mask is None else self.blender.blend(deviation, mask)
+        sd = self.model.shape.sd
+        alpha, step = self.alpha / sd, self.model.shape.project(moved) / sd
+        a, b, c = float(step @ step), 2.0 * float(alpha @ step), float(alpha @ alpha) - float(radius) ** 2
+        if c >= 0:
+            return 1.0
+        if a > 0:
+            ratio = min(ratio, 1.0 + (-b + np.sqrt(b * b - 4 * a * c)) / (2 * a))
+        if folded_against(self.shape + (ratio - 1.0) * moved, self.shape, self.model.triangles) == 0:
+            return ratio
+        low, high = 1.0, ratio
+        for _ in range(16):
+            middle = 0.5 * (low + high)
+            low, high = (middle, high) if folded_against(self.shape + (middle - 1.0) * moved, self.shape,
+                                                         self.model.triangles) == 0 else (low, middle)
+        return low
 
     def import_feature(self, index: int, segments, part: str = "both") -> None:
         """Replace the selected segments by those of database example ``index`` (5.1.5)."""

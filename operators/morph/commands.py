@@ -8,6 +8,7 @@ import argparse
 from pathlib import Path
 
 import bpy
+import numpy as np
 
 from ...faces_hands_addon.core.errors import UserError
 from ..adapters.export import ExportOptions, save_or_export
@@ -45,12 +46,15 @@ def parse_setting(text: str) -> tuple[list[str], str, float, str]:
 
 class Morph:
     INPUTS = ("model",)
+    INPUT_WORDS = {"model": ("mask",)}
     NAME = "morph"
     HELP = "create a face from a morphable model (attributes, constraints, caricature) and save .glb/.fbx/.blend"
 
     @staticmethod
     def add_arguments(parser):
-        parser.add_argument("--model", default="default", help="model file (.npz, .mat, .h5, .bin) or 'default'")
+        parser.add_argument("--model", default="default",
+                            help="model file (.npz, .mat, .h5, .bin), 'default' (whole heads on the character's "
+                                 "topology) or 'mask' (the synthetic 468-vertex face mask)")
         parser.add_argument("--face", choices=("average", "random", "example"), default=None,
                             help="start face (default: average; random when --seed is given)")
         parser.add_argument("--seed", type=int, default=None, help="seed of the random start face")
@@ -64,6 +68,14 @@ class Morph:
         parser.add_argument("--caricature", dest="caricature", action=_Ordered, metavar="LEVEL",
                             help="caricature level (1 = unchanged)")
         parser.add_argument("--sheet", help="also render a contact sheet (.png) of the demo cells")
+        parser.add_argument("--sheet-cells", choices=tuple(sheet.SHEETS), default="demo",
+                            help="what the contact sheet shows: the demo cells, 12 random people, or every "
+                                 "attribute at -2 / 0 / +2")
+        parser.add_argument("--sheet-view", choices=tuple(sheet.VIEWS), default="front", help="view of the sheet")
+        parser.add_argument("--sheet-columns", type=int, default=6, help="cells per row of the sheet")
+        parser.add_argument("--character", action="store_true",
+                            help="write the default character's body with this head (the model's head written "
+                                 "into the character's mesh; models of the character's topology only)")
         parser.add_argument("--save-face", help="also save the face as JSON")
         parser.add_argument("--out", required=True, help="output .glb, .fbx or .blend")
 
@@ -91,10 +103,13 @@ class Morph:
         if args.sheet:
             progress(0.3, "rendering the contact sheet")
             with atomic_output(extra[0]) as tmp:
-                sheet.render_sheet(bpy.context, obj, sheet.demo_cells(face.model), tmp, progress=progress)
+                sheet.render_sheet(bpy.context, obj, sheet.SHEETS[args.sheet_cells](face.model), tmp,
+                                   columns=max(1, args.sheet_columns), progress=progress, view=args.sheet_view)
             outputs.append(extra[0])
         if args.save_face:
             outputs.append(services.save_face(obj, args.save_face))
+        if args.character:
+            obj = _character_with(obj)
         _write(obj, out)
         print(written(outputs))
         return 0
@@ -111,6 +126,24 @@ def _step(face, flag: str, value: str) -> None:
             face.caricature(float(value))
         except ValueError:
             raise UserError(f"--caricature {value!r} is not a number") from None
+
+
+def _character_with(obj):
+    """The default character's body (a plain mesh) with the face's head written into it; the head object
+    goes (the output is the character)."""
+    from ...faces_hands_addon.character.body import character_mesh
+    from ..character.objects import body_mesh
+    body = bpy.data.objects.new("FH Character", body_mesh("FH Character", character_mesh()))
+    bpy.context.scene.collection.objects.link(body)
+    services.link_character(obj, body)
+    coords = np.empty(len(body.data.vertices) * 3, np.float32)
+    body.data.shape_keys.key_blocks[services.HEAD_KEY].data.foreach_get("co", coords)
+    body.shape_key_clear()
+    body.data.attributes["position"].data.foreach_set("vector", coords)
+    body.data.update()
+    bpy.data.objects.remove(obj)
+    print(f"  the head written into the character's body ({len(body.data.vertices)} vertices)")
+    return body
 
 
 def _write(obj, out) -> None:

@@ -210,6 +210,24 @@ class FH_OT_morph_undo_edit(HardenedOperator, bpy.types.Operator):
         return {"FINISHED"}
 
 
+class FH_OT_morph_link_character(HardenedOperator, bpy.types.Operator):
+    """Let this morph head reshape the selected character's head: every edit (Average, Random, Example,
+    sliders, caricature) is written into the character's 'FH Morph Head' shape key"""
+
+    bl_idname = "faces_hands.morph_link_character"
+    bl_label = "Reshape Character"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def run(self, context):
+        obj = _face_object(context)
+        bodies = [o for o in context.selected_objects if o is not obj and o.type == "MESH"]
+        if len(bodies) != 1:
+            raise UserError("select the character's body and then the morph head (the head active)")
+        services.link_character(obj, bodies[0])
+        self.report({"INFO"}, f"'{obj.name}' now reshapes the head of '{bodies[0].name}'")
+        return {"FINISHED"}
+
+
 class FH_OT_morph_save_face(HardenedOperator, bpy.types.Operator):
     """Save the face (model, edit history, constraints, coefficients) as JSON"""
 
@@ -301,7 +319,7 @@ class FH_OT_morph_make_animatable(JobOperator, bpy.types.Operator):
         return MakeAnimatableJob(_face_object(context))
 
 
-CLASSES = [FH_OT_morph_new_face, FH_OT_morph_set_attribute, FH_OT_morph_caricature, FH_OT_morph_show_segments,
+CLASSES = [FH_OT_morph_link_character, FH_OT_morph_new_face, FH_OT_morph_set_attribute, FH_OT_morph_caricature, FH_OT_morph_show_segments,
            FH_OT_morph_constrain, FH_OT_morph_release, FH_OT_morph_import_feature, FH_OT_morph_transform,
            FH_OT_morph_add_detail, FH_OT_morph_undo_edit, FH_OT_morph_save_face, FH_OT_morph_load_face,
            FH_OT_morph_render_thumbnails, FH_OT_morph_build_model, FH_OT_morph_make_animatable]

@@ -17,18 +17,21 @@ import numpy as np
 from ...faces_hands_addon.core.errors import UserError
 from ...faces_hands_addon.core.foreign_files import read_text
 from ...faces_hands_addon.morph.editing import EditFace, face_from_state
+from ...faces_hands_addon.morph.heads import TOPOLOGY as HEAD_TOPOLOGY, albedo as head_albedo
 from ...faces_hands_addon.morph.segments import hierarchy_order
 from ..adapters.materials import enable_nodes
 from ..adapters.meshes import mesh_from_arrays, object_from_mesh
-from ...names import MORPH_EXAMPLES, MORPH_HISTORY, MORPH_MARKER, MORPH_MODEL, MORPH_STATE
+from ...names import MORPH_CHARACTER, MORPH_EXAMPLES, MORPH_HISTORY, MORPH_MARKER, MORPH_MODEL, MORPH_STATE
 
 __all__ = ["MORPH_MARKER", "DEFAULT", "model_for", "create_face_object", "face_of", "morph_object",
-           "write_face", "apply", "sync_panel", "save_face", "load_face", "segment_colours", "make_animatable"]
+           "write_face", "apply", "sync_panel", "save_face", "load_face", "segment_colours", "make_animatable",
+           "link_character", "write_character"]
 
 MODEL_KEY, STATE_KEY, EXAMPLES_KEY, HISTORY_KEY = MORPH_MODEL, MORPH_STATE, MORPH_EXAMPLES, MORPH_HISTORY
 ALBEDO = "FH Albedo"
 MASK = "FH Segments"
 DEFAULT = "default"
+MASK_MODEL = "mask"
 MAX_FACE_BYTES = 50_000_000      # a saved face is its edit history: kilobytes
 
 _models: dict[str, object] = {}
@@ -36,12 +39,17 @@ _faces: dict[int, tuple[str, EditFace]] = {}
 
 
 def model_for(source: str = DEFAULT):
-    """The model of ``source`` (``default`` or a model file), loaded once per session."""
+    """The model of ``source`` (``default``: the whole heads on the character's topology; ``mask``: the
+    synthetic 468-vertex face mask; or a model file), loaded once per session."""
     if source in _models:
         return _models[source]
-    key = DEFAULT if source in ("", DEFAULT) else str(Path(bpy.path.abspath(source)).resolve())
+    key = source if source in ("", DEFAULT, MASK_MODEL) else str(Path(bpy.path.abspath(source)).resolve())
+    key = key or DEFAULT
     if key not in _models:
         if key == DEFAULT:
+            from ...faces_hands_addon.morph.heads import head_model
+            _models[key] = head_model()
+        elif key == MASK_MODEL:
             from ...faces_hands_addon.morph.population import default_model
             _models[key] = default_model()
         else:
@@ -84,13 +92,16 @@ def create_face_object(context, source: str = DEFAULT, kind: str = "average", se
     mesh = mesh_from_arrays(name, face.shape, model.triangles, model.uvs)
     obj = object_from_mesh(mesh, context.scene.collection, name)
     obj[MORPH_MARKER] = 1
-    obj[MODEL_KEY] = DEFAULT if source in ("", DEFAULT) else source
+    obj[MODEL_KEY] = source or DEFAULT
     obj[EXAMPLES_KEY] = json.dumps([[i, name, labels] for i, (name, labels)
                                     in enumerate(zip(model.example_names, model.example_labels))])
     mesh.color_attributes.new(ALBEDO, "FLOAT_COLOR", "POINT")
     mesh.color_attributes.new(MASK, "FLOAT_COLOR", "POINT")
     _show_colours(mesh, ALBEDO)
     mesh.materials.append(_material("FH Morph Skin"))
+    previous = morph_object(context.view_layer.objects.active)
+    if previous is not None and previous.get(MORPH_CHARACTER) and previous.get(MODEL_KEY) == obj[MODEL_KEY]:
+        obj[MORPH_CHARACTER] = previous[MORPH_CHARACTER]      # a new face keeps reshaping the same character
     write_face(obj, face)
     sync_panel(obj, face)
     for other in context.view_layer.objects.selected:
@@ -119,15 +130,76 @@ def write_face(obj, face: EditFace) -> None:
     if len(mesh.vertices) != face.model.vertex_count:
         raise UserError(f"'{obj.name}' has {len(mesh.vertices)} vertices; its model has {face.model.vertex_count}")
     mesh.attributes["position"].data.foreach_set("vector", np.ascontiguousarray(face.shape, np.float32).ravel())
-    if face.colour is not None and ALBEDO in mesh.color_attributes:
-        rgba = np.ones((len(face.colour), 4), np.float32)
-        rgba[:, :3] = np.clip(face.colour, 0.0, 1.0)
+    colour = face.colour
+    if colour is None and face.model.info.get("topology") == HEAD_TOPOLOGY:
+        colour = head_albedo(face.model)
+    if colour is not None and ALBEDO in mesh.color_attributes:
+        rgba = np.ones((len(colour), 4), np.float32)
+        rgba[:, :3] = np.clip(colour, 0.0, 1.0)
         mesh.color_attributes[ALBEDO].data.foreach_set("color", rgba.ravel())
     mesh.update()
+    write_character(obj, face)
     state = json.dumps(face.state(), sort_keys=True)
     obj[STATE_KEY] = state
     obj[HISTORY_KEY] = "\n".join(face.history_lines())
     _faces[obj.session_uid] = (state, face)
+
+
+# ------------------------------------------------------------------------------------------ the character
+HEAD_KEY = "FH Morph Head"
+_character: dict[str, object] = {}
+
+
+def _character_base_index() -> np.ndarray:
+    if "base_index" not in _character:
+        from ...faces_hands_addon.character.body import character_mesh
+        _character["base_index"] = character_mesh().base_index
+    return _character["base_index"]
+
+
+def link_character(obj, body) -> None:
+    """Let the morph face ``obj`` reshape the head of the character ``body`` (a mesh of the default
+    character's topology): from now on every edit writes the head into the body's shape key
+    :data:`HEAD_KEY` (value 1; the body's own shape stays its basis). Refused, the scene unchanged, for a
+    face of another model or a body of another topology."""
+    from ...faces_hands_addon.morph.heads import character_ids, check_head_model
+    face = face_of(obj)
+    check_head_model(face.model, f"model {face.model.name!r}")
+    if body is None or body.type != "MESH" or body is obj:
+        raise UserError("select the character's body as well as the morph head (the head active)")
+    base = _character_base_index()
+    if len(body.data.vertices) != len(base):
+        raise UserError(f"'{body.name}' has {len(body.data.vertices)} vertices; the default character's body has "
+                        f"{len(base)}: it is not the character's topology")
+    character_ids(face.model, base)
+    obj[MORPH_CHARACTER] = body.name
+    write_character(obj, face)
+
+
+def write_character(obj, face: EditFace) -> None:
+    """The face's head into its linked character's shape key (nothing when none is linked or it is gone)."""
+    body = bpy.data.objects.get(obj.get(MORPH_CHARACTER, "") or "")
+    if body is None or body.type != "MESH":
+        return
+    from ...faces_hands_addon.morph.heads import character_ids
+    base = _character_base_index()
+    mesh = body.data
+    if len(mesh.vertices) != len(base):
+        raise UserError(f"'{body.name}' no longer has the character's {len(base)} vertices")
+    key = (id(face.model), len(base))
+    local = _character.get(key)
+    if local is None:
+        local = _character[key] = character_ids(face.model, base)
+    if mesh.shape_keys is None:
+        body.shape_key_add(name="Basis", from_mix=False)
+    block = mesh.shape_keys.key_blocks.get(HEAD_KEY) or body.shape_key_add(name=HEAD_KEY, from_mix=False)
+    coords = np.empty(len(mesh.vertices) * 3, np.float32)
+    mesh.shape_keys.reference_key.data.foreach_get("co", coords)
+    coords = coords.reshape(-1, 3)
+    coords[local] = face.shape
+    block.data.foreach_set("co", coords.ravel())
+    block.value = 1.0
+    mesh.update()
 
 
 def selected_segments(obj) -> list[str]:
@@ -233,7 +305,8 @@ def make_animatable(context, obj, name: str | None = None):
     are the landmarks (no registration); a copy of the mesh becomes the rig's skin."""
     face = face_of(obj)
     if face.model.info.get("topology") != "mediapipe_canonical_468":
-        raise UserError("Make Animatable needs a face on the MediaPipe topology (the default model)")
+        raise UserError("Make Animatable needs a face on the MediaPipe topology (the 'mask' model); a head of the "
+                        "character's topology is animated through the character (build-character)")
     from ...faces_hands_addon.face.fitted import build_fitted_rig
     world = np.asarray(obj.matrix_world, np.float64)
     vertices = face.shape @ world[:3, :3].T + world[:3, 3]

@@ -53,7 +53,9 @@ def _render_tiles(context, obj, cells: list[Cell], cell_size, progress=None, vie
     points = own.model.mean_vertices() @ world[:3, :3].T + world[:3, 3]
     low, high = points.min(axis=0), points.max(axis=0)
     height = float(high[2] - low[2])
-    label = _label(scene, "", ((low[0] + high[0]) / 2, low[1] - 0.02, low[2] - 0.16 * height), 0.075 * height)
+    depth = low[1] - 0.02 if view == "front" else (low[1] + high[1]) / 2
+    label = _label(scene, "", ((low[0] + high[0]) / 2, depth, low[2] - 0.16 * height), 0.075 * height)
+    label.rotation_euler[2] = math.radians(VIEWS[view])          # faces the camera of the view
     tmp_dir = Path(tempfile.mkdtemp(prefix="fh-morph-sheet-"))
     below = 0.22 * height if labelled else 0.02 * height
     tiles = []
@@ -113,20 +115,25 @@ def render_thumbnails(context, obj, indices, size: int = 96) -> list:
 
 
 MASCULINE, BROWS = "masculine-feminine", "eyebrows-eyes distance"
+BROW_RIDGE = "flat-prominent brow ridge"      # the head model's stand-in for the brows of Fig. 3.8
 
 
-def fig_3_8_cells(masculine: float = -1.5, brows: float = 1.5) -> list[Cell]:
-    """The Fig. 3.8 experiment: masculine; higher eyebrows; both added; both with masculinity constrained."""
+def fig_3_8_cells(masculine: float = -1.5, brows: float = 1.5, second: str = BROWS) -> list[Cell]:
+    """The Fig. 3.8 experiment: masculine; a second attribute (higher eyebrows); both added; both with
+    masculinity constrained."""
+    short = "brows" if second == BROWS else second.split()[-1]
     return [("average", []),
             (f"masculine {masculine:+.1f}", [("set_attribute", (MASCULINE, masculine), {})]),
-            (f"brows {brows:+.1f}", [("set_attribute", (BROWS, brows), {})]),
-            ("masc., then brows", [("set_attribute", (MASCULINE, masculine), {}), ("set_attribute", (BROWS, brows), {})]),
-            ("masc. kept, brows", [("set_attribute", (MASCULINE, masculine), {}), ("constrain", (MASCULINE,), {}),
-                                   ("set_attribute", (BROWS, brows), {})])]
+            (f"{short} {brows:+.1f}", [("set_attribute", (second, brows), {})]),
+            (f"masc., then {short}", [("set_attribute", (MASCULINE, masculine), {}),
+                                      ("set_attribute", (second, brows), {})]),
+            (f"masc. kept, {short}", [("set_attribute", (MASCULINE, masculine), {}), ("constrain", (MASCULINE,), {}),
+                                      ("set_attribute", (second, brows), {})])]
 
 
 def demo_cells(model) -> list[Cell]:
-    """Average, +-2 on a few attributes, a caricature of a random face, and the Fig. 3.8 experiment."""
+    """Average, +-2 on a few attributes, a caricature of a random face, and the Fig. 3.8 experiment (with the
+    brow ridge where the model has no eyebrow attribute)."""
     cells: list[Cell] = [("average", [])]
     for name in ("masculine-feminine", "slender-obese", "narrow-wide", "dark-light skin", "younger-older"):
         if name in model.attributes:
@@ -135,4 +142,27 @@ def demo_cells(model) -> list[Cell]:
                 cells.append((f"{name} {value:+.0f}", [("set_attribute", (name, value, part), {})]))
     cells.append(("random (seed 3)", [("create", ("random", 3), {})]))
     cells.append(("its caricature x2", [("create", ("random", 3), {}), ("caricature", (2.0,), {})]))
-    return cells + fig_3_8_cells()[1:]
+    if MASCULINE not in model.attributes:
+        return cells
+    second = BROWS if BROWS in model.attributes else BROW_RIDGE
+    if second not in model.attributes:
+        return cells
+    return cells + fig_3_8_cells(second=second)[1:]
+
+
+def people_cells(model, count: int = 12) -> list[Cell]:
+    """``count`` random people of the model (seeds 1..count)."""
+    return [(f"random {seed}", [("create", ("random", seed), {})]) for seed in range(1, count + 1)]
+
+
+def attribute_cells(model, values=(-2.0, 0.0, 2.0)) -> list[Cell]:
+    """Every attribute of the model at each of ``values`` (shape), on the average face, by Table 5.2
+    category."""
+    order = list(model.info.get("categories", [])) or sorted({a.category for a in model.attributes.values()})
+    names = sorted(model.attributes, key=lambda n: (order.index(model.attributes[n].category)
+                                                    if model.attributes[n].category in order else len(order), n))
+    return [(f"{name} {value:+.0f}", [("set_attribute", (name, value, "shape"), {})] if value else [])
+            for name in names for value in values]
+
+
+SHEETS = {"demo": demo_cells, "people": people_cells, "attributes": attribute_cells}

@@ -25,10 +25,11 @@ _models: dict[str, HeadModel] = {}
 
 
 def head_model(source: str = "default") -> HeadModel:
-    """The photo view of the morphable model ``source`` (``default`` or a model file), once per session."""
+    """The photo view of the morphable model ``source`` (``default``: the synthetic face mask, the model with
+    MediaPipe's landmark vertices; or a model file), once per session."""
     if source not in _models:
-        from ..morph.services import model_for
-        _models[source] = HeadModel.from_morphable(model_for(source))
+        from ..morph.services import MASK_MODEL, model_for
+        _models[source] = HeadModel.from_morphable(model_for(MASK_MODEL if source in ("", "default") else source))
     return _models[source]
 
 

@@ -1,6 +1,8 @@
 """Morphable faces through the installed add-on: new face, sliders with undo-able operators, the Fig. 3.8
 experiment in Blender, segments, save/load, Build Model from Meshes (good and bad input), the CLI, and a
-rendered contact sheet whose cells differ."""
+rendered contact sheet whose cells differ. The default model is the whole head on the character's topology;
+the tests of the mask's own attributes (eyebrows, colour, the MediaPipe topology Make Animatable needs) ask
+for the synthetic mask model ('mask') by name."""
 from __future__ import annotations
 
 import json
@@ -20,11 +22,31 @@ def _vertices(obj):
     return out.reshape(-1, 3)
 
 
-def _new(bpy, **kwargs):
+def _new(bpy, model="mask", **kwargs):
+    bpy.context.scene.faces_hands_morph.model_path = model
     assert bpy.ops.faces_hands.morph_new_face(**kwargs) == {"FINISHED"}
     obj = bpy.context.active_object
-    assert obj.get("fh_morph") and len(obj.data.vertices) == 468
+    assert obj.get("fh_morph") and (model != "mask" or len(obj.data.vertices) == 468)
     return obj
+
+
+def test_the_default_model_is_the_characters_whole_head(bpy_clean):
+    bpy = bpy_clean
+    services = addon_module("operators.morph.services")
+    heads = addon_module("faces_hands_addon.morph.heads")
+    obj = _new(bpy, model="", kind="random", seed=5)
+    model = services.face_of(obj).model
+    assert model.info["topology"] == heads.TOPOLOGY and len(obj.data.vertices) == model.vertex_count > 4000
+    sliders = {item.name: item for item in obj.faces_hands_morph.sliders}
+    assert {MASC, "thin-full lips", "small-large ears"} <= set(sliders)
+    before = _vertices(obj).copy()
+    sliders["short-long nose"].shape = 1.5
+    moved = np.linalg.norm(_vertices(obj) - before, axis=1)
+    nose = model.segments["nose"]
+    assert moved[nose].max() > 1e-3 and moved[model.segments["ears"]].max() < 1e-6    # the nose, not the ears
+    colours = np.empty(len(obj.data.vertices) * 4, np.float32)
+    obj.data.color_attributes["FH Albedo"].data.foreach_get("color", colours)
+    assert 0.3 < colours.reshape(-1, 4)[:, :3].mean() < 0.9                         # skin, not black
 
 
 @pytest.mark.smoke
@@ -111,7 +133,7 @@ def test_build_model_from_meshes_with_labels_and_bad_input(bpy_clean, tmp_path):
     out = tmp_path / "mine.npz"
     assert bpy.ops.faces_hands.morph_build_model(labels=str(labels), out=str(out)) == {"FINISHED"}
     assert out.is_file() and bpy.context.scene.faces_hands_morph.model_path == str(out)
-    obj = _new(bpy)
+    obj = _new(bpy, model=str(out))
     assert [item.name for item in obj.faces_hands_morph.sliders] == ["age"]
     names = sorted(o.name for o in bpy.data.objects)
     labels.write_text("name,age\nex0,1\nex1,2\n")
@@ -141,7 +163,8 @@ def test_contact_sheet_cells_differ(bpy_clean, tmp_path):
 
 def test_cli_morph_fig_3_8_and_bad_input(installed, tmp_path):
     out = tmp_path / "face.glb"
-    result = run_fh(installed, "morph", "--seed", "11", "--set", f"{MASC}@shape=-1.5", "--constrain", MASC,
+    result = run_fh(installed, "morph", "--model", "mask", "--seed", "11", "--set", f"{MASC}@shape=-1.5",
+                    "--constrain", MASC,
                     "--set", f"{BROWS}@shape=1.5", "--set", "mouth:narrow-wide@shape=-0.4",
                     "--sheet", tmp_path / "sheet.png", "--out", out)
     assert result.returncode == 0, result.stderr
@@ -155,6 +178,26 @@ def test_cli_morph_fig_3_8_and_bad_input(installed, tmp_path):
     assert result.returncode == 1 and "broken.h5" in result.stderr and not (tmp_path / "x.glb").exists()
     result = run_fh(installed, "morph", "--set", "nonsense=1", "--out", tmp_path / "y.glb")
     assert result.returncode == 1 and "no attribute" in result.stderr
+
+
+def test_cli_set_is_absolute_on_the_head_model(installed, tmp_path):
+    out = tmp_path / "head.glb"
+    result = run_fh(installed, "morph", "--seed", "11", "--set", f"{MASC}=0", "--constrain", MASC,
+                    "--set", "thin-full lips=1.5", "--caricature", "1.5", "--out", out)
+    assert result.returncode == 0, result.stderr
+    kept = re.search(r"constraint masculine-feminine: shape \S+, now (\S+)", result.stdout)
+    assert kept and abs(float(kept.group(1))) < 1e-6, result.stdout     # 0 from a random face, kept
+    assert out.read_bytes()[:4] == b"glTF"
+    body = tmp_path / "character.glb"
+    result = run_fh(installed, "morph", "--seed", "2", "--character", "--out", body)
+    assert result.returncode == 0, result.stderr
+    data = body.read_bytes()
+    length = int.from_bytes(data[12:16], "little")
+    gltf = json.loads(data[20:20 + length])
+    positions = [p["attributes"]["POSITION"] for m in gltf["meshes"] for p in m["primitives"]]
+    assert sum(gltf["accessors"][i]["count"] for i in positions) >= 13886          # the whole body
+    result = run_fh(installed, "morph", "--model", "mask", "--character", "--out", tmp_path / "no.glb")
+    assert result.returncode == 1 and "topology" in result.stderr and not (tmp_path / "no.glb").exists()
 
 
 def test_thumbnails_of_filtered_examples(bpy_clean):
@@ -233,3 +276,44 @@ def test_new_face_with_a_bad_model_file_changes_nothing(bpy_clean, tmp_path):
         with pytest.raises(RuntimeError, match=message):
             bpy.ops.faces_hands.morph_new_face()
         assert (sorted(o.name for o in bpy.data.objects), len(bpy.data.meshes)) == before
+
+
+def test_a_morph_head_reshapes_the_characters_head(bpy_clean):
+    bpy = bpy_clean
+    body_mesh = addon_module("operators.character.objects").body_mesh
+    character = addon_module("faces_hands_addon.character.body").character_mesh()
+    services = addon_module("operators.morph.services")
+    body = bpy.data.objects.new("Body", body_mesh("Body", character))
+    bpy.context.scene.collection.objects.link(body)
+    head = _new(bpy, model="", kind="random", seed=3)
+    model = services.face_of(head).model
+    local = addon_module("faces_hands_addon.morph.heads").character_ids(model, character.base_index)
+    wrong = bpy.data.objects.new("Wrong", bpy.data.meshes.new("Wrong"))
+    wrong.data.vertices.add(12)
+    bpy.context.scene.collection.objects.link(wrong)
+    for other, message in ((wrong, "not the character's topology"), (None, "select the character's body")):
+        for o in bpy.context.selected_objects:
+            o.select_set(False)
+        if other is not None:
+            other.select_set(True)
+        head.select_set(True)
+        bpy.context.view_layer.objects.active = head
+        with pytest.raises(RuntimeError, match=message):
+            bpy.ops.faces_hands.morph_link_character()
+        assert body.data.shape_keys is None and not head.get("fh_morph_character")
+    body.select_set(True)
+    assert bpy.ops.faces_hands.morph_link_character() == {"FINISHED"}
+
+    def keyed():
+        out = np.empty(len(body.data.vertices) * 3, np.float32)
+        body.data.shape_keys.key_blocks["FH Morph Head"].data.foreach_get("co", out)
+        return out.reshape(-1, 3)
+    assert np.abs(keyed()[local] - _vertices(head)).max() < 1e-6
+    rest = np.setdiff1d(np.arange(len(character.vertices)), local)
+    assert np.abs(keyed()[rest] - character.vertices[rest]).max() < 1e-6     # the body stays
+    before = keyed().copy()
+    next(i for i in head.faces_hands_morph.sliders if i.name == "narrow-wide jaw").shape = 2.0
+    assert np.abs(keyed()[local] - _vertices(head)).max() < 1e-6 and np.abs(keyed() - before).max() > 1e-3
+    assert bpy.ops.faces_hands.morph_new_face(kind="example", index=4) == {"FINISHED"}   # a new face keeps it
+    example = bpy.context.active_object
+    assert example is not head and np.abs(keyed()[local] - _vertices(example)).max() < 1e-6
