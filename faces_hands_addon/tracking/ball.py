@@ -170,12 +170,15 @@ def _virtual_rotation(direction: np.ndarray) -> np.ndarray:
 
 
 def refine_centre(camera: Camera, image_value: np.ndarray, silhouette: Silhouette, approximate: np.ndarray,
-                  ball_radius: float, level: float) -> np.ndarray:
+                  ball_radius: float, level: float, ellipse_fallback: bool = True) -> np.ndarray:
     """The silhouette's centre (undistorted pixels) with the image radius predicted from the approximate 3D
     position ``approximate`` and the ball's real radius (6.3.3): sub-pixel boundary points, circular Hough with
     that known radius, polished (module docstring). The search runs in a virtual camera turned to look at the
     ball, where a sphere's outline is exactly a circle of radius ``f tan(asin(R / d))`` around the image of
-    its centre (off the axis of the real camera it is an ellipse, elongated by 1 / cos of the angle)."""
+    its centre (off the axis of the real camera it is an ellipse, elongated by 1 / cos of the angle).
+    ``ellipse_fallback=False`` keeps the circle even for a whole disc with a soft limb: the ellipse of the
+    thresholded disc leans towards the lit side, which the marker directions of 6.3.3 feel (they are taken
+    from the centre) more than the ball's position does."""
     f = 0.5 * (camera.fx + camera.fy)
     ray = camera.R @ (approximate - camera.centre)
     distance = float(np.linalg.norm(ray))
@@ -198,7 +201,7 @@ def refine_centre(camera: Camera, image_value: np.ndarray, silhouette: Silhouett
     search = max(radius, silhouette.axes[0]) * 1.2
     centre = _polish(virtual, radius, hough_centre(virtual, radius, start, search)[0])
     d = np.abs(np.linalg.norm(virtual - centre, axis=1) - radius)
-    if whole and float(np.sqrt(np.mean(d[d < 1.0] ** 2))) > 0.3:
+    if ellipse_fallback and whole and float(np.sqrt(np.mean(d[d < 1.0] ** 2))) > 0.3:
         return silhouette.centre          # a whole disc with a soft limb: its ellipse is the better outline
     d = turn.T @ np.array([centre[0] / f, centre[1] / f, 1.0])
     return np.array([camera.fx * d[0] / d[2] + camera.cx, camera.fy * d[1] / d[2] + camera.cy])

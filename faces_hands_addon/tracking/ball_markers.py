@@ -16,7 +16,7 @@ from .camera import Camera
 from .meshes import shape_inside
 from .images import colour_masks, hsv, regions
 
-__all__ = ["markers_in_photo", "marker_directions", "ray_sphere", "spread", "unforeshorten"]
+__all__ = ["markers_in_photo", "marker_directions", "ray_sphere", "spread", "unforeshorten", "foreshorten"]
 
 
 def markers_in_photo(image: np.ndarray, centre: np.ndarray, radius: float, model: BallModel) -> list[tuple[np.ndarray, int]]:
@@ -94,6 +94,20 @@ def unforeshorten(direction: np.ndarray, towards: np.ndarray, spread_rad2: float
     side = direction - cosine * towards
     side /= np.linalg.norm(side)
     return np.cos(theta) * towards + np.sin(theta) * side
+
+
+def foreshorten(directions: np.ndarray, towards: np.ndarray, spread_rad2) -> np.ndarray:
+    """Where the picture's centre of gravity puts markers whose centres are at ``directions`` (n, 3), seen
+    along ``towards`` (n, 3 or 3): the inverse of :func:`unforeshorten`, ``sin(theta_seen) = sin(theta)
+    (1 - 1.5 E)`` with ``E`` = ``spread_rad2`` (n or scalar)."""
+    d = np.atleast_2d(np.asarray(directions, np.float64))
+    w = np.broadcast_to(np.asarray(towards, np.float64), d.shape)
+    cosine = np.clip(np.sum(d * w, axis=1), -1.0, 1.0)
+    sine = np.sqrt(np.maximum(1.0 - cosine ** 2, 0.0))
+    seen = np.arcsin(np.clip(sine * (1.0 - 1.5 * np.asarray(spread_rad2, np.float64)), -1.0, 1.0))
+    side = d - cosine[:, None] * w
+    side /= np.maximum(np.linalg.norm(side, axis=1, keepdims=True), 1e-12)
+    return np.cos(seen)[:, None] * w + np.sin(seen)[:, None] * side
 
 
 def marker_directions(cameras: list[Camera], detections: list[list[tuple[np.ndarray, int]]], centre: np.ndarray,

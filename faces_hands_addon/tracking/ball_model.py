@@ -10,13 +10,13 @@ import numpy as np
 
 from ..core.errors import UserError
 from ..core.presets import NUMBER, PresetFormat, read_preset, register_format
-from .flight import Ball
+from .flight import LIFT_MODELS, Ball
 
 __all__ = ["BallModel", "ball_model", "BALL_FORMAT"]
 
 BALL_FORMAT = register_format(PresetFormat(
     "faces_hands.pitch_ball", 1, required=("radius", "mass", "marker_size", "types", "markers"),
-    shape={"description": str, "radius": NUMBER, "mass": NUMBER, "marker_size": NUMBER,
+    shape={"description": str, "radius": NUMBER, "mass": NUMBER, "marker_size": NUMBER, "lift": str,
            "types": {str: {"colour": str, "shape": str, "rgb": [NUMBER]}},
            "markers": [{"type": str, "azimuth": NUMBER, "polar": NUMBER}]}))
 SHAPES = ("square", "ring", "triangle", "circle")
@@ -36,10 +36,11 @@ class BallModel:
     radius: float
     mass: float
     marker_size: float
+    lift: str = "thesis"
 
     @property
     def physics(self) -> Ball:
-        return Ball(self.mass, self.radius)
+        return Ball(self.mass, self.radius, self.lift)
 
     def type_of_colour(self, colour: str) -> int:
         return self.colours.index(colour)
@@ -61,7 +62,10 @@ def ball_model(document: dict | None = None) -> BallModel:
         types.append(names.index(m["type"]))
     if not 0.02 < doc["radius"] < 0.2 or not doc["mass"] > 0 or not 0 < doc["marker_size"] < doc["radius"]:
         raise UserError("ball preset: radius 0.02-0.2 m, a positive mass and a marker smaller than the ball")
+    lift = doc.get("lift", "thesis")
+    if lift not in LIFT_MODELS:
+        raise UserError(f"ball preset: lift {lift!r} is not one of {', '.join(LIFT_MODELS)}")
     return BallModel(np.array(directions), np.array(types), names,
                      tuple(doc["types"][n]["colour"] for n in names), tuple(doc["types"][n]["shape"] for n in names),
                      tuple(tuple(float(v) for v in doc["types"][n]["rgb"]) for n in names),
-                     float(doc["radius"]), float(doc["mass"]), float(doc["marker_size"]))
+                     float(doc["radius"]), float(doc["mass"]), float(doc["marker_size"]), lift)

@@ -9,6 +9,19 @@ baseball, integrated with the Dormand-Prince 5(4) pair (scipy's ``RK45``; the th
 * ``F_M = 1/2 C_L rho A |v|^2 (w x v)/|w x v|``, ``C_L = 1.5 r |w| / |v|`` ([AMH01]; ``w`` in rad/s), the
   spin axis and rate constant during the flight (footnote 3 of 6.3.3).
 
+The lift coefficient is a function of the spin factor ``S = r |w| / |v|``; :data:`LIFT_MODELS` names the
+choices and :class:`Ball` carries one (``presets/tracking/ball.json``, key ``lift``):
+
+* ``"thesis"``: ``C_L = 1.5 S``, Eq. 6.12 as printed (the specification, the default);
+* ``"sawicki2003"``: ``C_L = 1.5 S`` up to ``S = 0.1`` and ``0.09 + 0.6 S`` above, the bilinear fit of
+  G. S. Sawicki, M. Hubbard and W. J. Stronge, "How to hit home runs", Am. J. Phys. 71 (2003) 1152, to
+  measured lift of pitched and wind-tunnel baseballs (Alaways' trajectories of pitched balls, the data
+  behind [AMH01], and the wind tunnel of Watts and Ferrer 1987). The thesis' line is its low-spin branch:
+  at a pitch's ``S`` of 0.15-0.25 it gives about 0.7 of the thesis' lift.
+  A. M. Nathan, "The effect of spin on the flight of a baseball", Am. J. Phys. 76 (2008) 119, measured
+  ``C_L`` from high-speed video of the trajectories (``S`` 0.09-0.6) and found it to depend on ``S`` alone,
+  not on the speed; ``bench/pitch_physics.py`` sets both models against published curve figures.
+
 The quartic is a fit over the drag crisis of a baseball: read outside it, it climbs to 2.23 at rest and turns
 up again past its minimum. :func:`drag_coefficient` holds it at Adair's subcritical 0.5 below the Reynolds
 number where the quartic reaches 0.5, and at its minimum above the minimum (:data:`RE_RANGE`), so every pitch
@@ -28,7 +41,8 @@ from scipy.optimize import brentq, minimize_scalar
 from ..core.errors import UserError
 
 __all__ = ["Ball", "Air", "BASEBALL", "SEA_LEVEL", "reynolds", "drag_coefficient", "lift_coefficient", "acceleration",
-           "fly", "Flight", "curve_distances", "CD_COEFFICIENTS", "RE_RANGE", "MPH", "RPM", "GRAVITY"]
+           "fly", "Flight", "curve_distances", "CD_COEFFICIENTS", "RE_RANGE", "MPH", "RPM", "GRAVITY", "LIFT_MODELS",
+           "spin_factor"]
 
 MPH = 0.44704                     # m/s per mile per hour
 RPM = 2.0 * np.pi / 60.0          # rad/s per revolution per minute
@@ -39,11 +53,29 @@ SUBCRITICAL_CD = 0.5              # a baseball's drag coefficient below the drag
 LIFT_SLOPE = 1.5                  # C_L = 1.5 r |w| / |v| [AMH01]
 
 
+def _lift_thesis(s):
+    return LIFT_SLOPE * s
+
+
+def _lift_sawicki(s):
+    return np.where(s <= 0.1, LIFT_SLOPE * s, 0.09 + 0.6 * s)
+
+
+#: C_L as a function of the spin factor S = r |w| / |v|, by name (module docstring)
+LIFT_MODELS = {"thesis": _lift_thesis, "sawicki2003": _lift_sawicki}
+
+
 @dataclass(frozen=True)
 class Ball:
-    """A regulation baseball: 5-5.25 oz, 9-9.25 in around (Official Baseball Rules 3.01)."""
+    """A regulation baseball: 5-5.25 oz, 9-9.25 in around (Official Baseball Rules 3.01); ``lift`` names its
+    C_L(S) in :data:`LIFT_MODELS`."""
     mass: float = 0.145           # kg
     radius: float = 0.0366        # m
+    lift: str = "thesis"
+
+    def __post_init__(self):
+        if self.lift not in LIFT_MODELS:
+            raise UserError(f"unknown lift model {self.lift!r}; choose one of {', '.join(LIFT_MODELS)}")
 
     @property
     def area(self) -> float:
@@ -83,9 +115,14 @@ def drag_coefficient(re):
     return _quartic(np.clip(re, *RE_RANGE))
 
 
+def spin_factor(speed, spin_rate, ball: Ball = BASEBALL):
+    """S = r |w| / |v|, ``spin_rate`` in rad/s."""
+    return ball.radius * np.asarray(spin_rate, np.float64) / np.maximum(speed, 1e-9)
+
+
 def lift_coefficient(speed, spin_rate, ball: Ball = BASEBALL):
-    """C_L = 1.5 r |w| / |v| [AMH01], ``spin_rate`` in rad/s."""
-    return LIFT_SLOPE * ball.radius * np.asarray(spin_rate, np.float64) / np.maximum(speed, 1e-9)
+    """C_L of ``ball.lift`` (the thesis: 1.5 r |w| / |v| [AMH01]), ``spin_rate`` in rad/s."""
+    return LIFT_MODELS[ball.lift](spin_factor(speed, spin_rate, ball))
 
 
 def acceleration(velocity: np.ndarray, spin: np.ndarray, ball: Ball = BASEBALL, air: Air = SEA_LEVEL,

@@ -1,7 +1,8 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """The whole pitch tracker (thesis 6.3) as small steps, so a modal operator can show progress and stop on Esc:
 check the photos against the calibration, correct their distortion (6.3.1), ball positions of the front and
-back pairs (6.3.3), the ball's markers, orientations and spin (Eqs. 6.10, 6.11), the measured initial flight
+back pairs (6.3.3), the ball's markers, orientations and spin (Eqs. 6.10, 6.11; then one constant spin fitted
+to every ball's markers in the photos, with its axis uncertainty, :mod:`.spin_fit`), the measured initial flight
 parameters and the optimal reference trajectory (Eq. 6.12, Table 6.6), then the hand (6.3.2): glove markers,
 hand clusters, labels, root and joint angles.
 
@@ -17,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.errors import UserError
-from .ball import predicted_radius
+from .ball import predicted_radius, refine_centre
 from .ball_markers import marker_directions, markers_in_photo, spread
 from .ball_model import BallModel, ball_model
 from .glove import glove_layout
@@ -27,7 +28,9 @@ from .images import undistort_image
 from .orientation import orient_sequence, rigid_spin, spin_from
 from .positions import ball_positions
 from .reference import fit_reference, flash_indices, measure_initial, table_row
+from .spin_fit import image_spin
 from .setup import Calibration
+from .stereo import triangulate
 
 __all__ = ["PitchTracker", "PitchResult", "check_photos"]
 
@@ -41,6 +44,7 @@ class PitchResult:
     markers_per_ball: list = field(default_factory=list)
     spin_thesis: object = None
     spin: object = None
+    axis_sigma_deg: float = float("nan")
     measured: object = None
     reference: object = None
     table: dict = field(default_factory=dict)
@@ -62,6 +66,9 @@ class PitchResult:
                                "spin": arr(self.measured.spin)}
         if self.spin_thesis is not None:
             doc["spin_eq_6_11"] = {"axis": arr(self.spin_thesis.axis), "rpm": self.spin_thesis.rpm}
+        if self.spin is not None:
+            doc["spin"] = {"axis": arr(self.spin.axis), "rpm": self.spin.rpm,
+                           "axis_sigma_deg": None if np.isnan(self.axis_sigma_deg) else self.axis_sigma_deg}
         if self.reference is not None:
             doc["reference"] = {"position": arr(self.reference.position), "velocity": arr(self.reference.velocity),
                                 "spin": arr(self.reference.spin), "duration": self.reference.duration}
@@ -160,14 +167,16 @@ class PitchTracker:
         if len(r.front) < 2:
             return
         pair, found = self._front
-        observations = []
-        for n, centre in enumerate(_smoothed(found.points, r.front_times)):
+        centres = self._marker_centres(pair, found)
+        spreads = [spread(shape, self.model.marker_size, self.model.radius) for shape in self.model.shapes]
+        observations, per_ball = [], []
+        for n, centre in enumerate(centres):
             detections = []
             for c, cam in enumerate(pair):
                 pixel = found.centres[c][n]
                 radius = predicted_radius(cam, centre, self.model.radius)
                 detections.append(markers_in_photo(self.flat[cam.name], pixel, radius, self.model))
-            spreads = [spread(shape, self.model.marker_size, self.model.radius) for shape in self.model.shapes]
+            per_ball.append(detections)
             observations.append(marker_directions(list(pair), detections, centre, self.model.radius, spreads=spreads))
         r.markers_per_ball = [len(o[1]) for o in observations]
         hz = self.calibration.strobes.get("front", 80.0)
@@ -175,13 +184,39 @@ class PitchTracker:
         if np.any(np.diff(steps) > 1):
             r.warnings.append("a ball is missing between two front positions; the spin uses the positions before the gap")
             last = int(np.flatnonzero(np.diff(steps) > 1)[0]) + 1
-            observations = observations[:last]
+            observations, per_ball, centres = observations[:last], per_ball[:last], centres[:last]
         orientations = orient_sequence(self.model, observations)
         r.spin_thesis = spin_from(orientations, hz)
         refined, r.spin = rigid_spin(self.model, observations, orientations, r.spin_thesis, hz)
         r.orientations = refined
+        joint = image_spin(self.model, pair, per_ball, centres, refined, r.spin, hz, spreads)
+        if joint is not None:
+            r.orientations, r.spin, r.axis_sigma_deg = joint.orientations, joint.spin, joint.axis_sigma_deg
         if sum(r.markers_per_ball) < 4:
             r.warnings.append("fewer than 4 ball markers were found in the front photos; the spin is unreliable")
+
+    def _marker_centres(self, pair, found) -> np.ndarray:
+        """The ball centres the marker directions are taken from: each silhouette's circle (never its ellipse,
+        :func:`.ball.refine_centre`), stereo, on a parabola in time. A circle that lands away from its ball's
+        position by more than the others do (a neighbour's edge, a marker on the limb taken for the outline:
+        beyond 3 robust deviations of the circles' shifts, at least 0.5 mm) is replaced by the position plus the
+        typical shift."""
+        values = [np.max(self.flat[cam.name][..., :3], axis=-1) for cam in pair]
+        pixels = [np.array([refine_centre(cam, values[c], found.silhouettes[c][n], found.points[n], self.model.radius,
+                                          found.levels[c], ellipse_fallback=False)
+                            for n in range(len(found.points))]).reshape(-1, 2) for c, cam in enumerate(pair)]
+        points = triangulate(list(pair), pixels)
+        shift = points - found.points
+        finite = np.all(np.isfinite(shift), axis=1)
+        if np.any(finite):
+            typical = np.median(shift[finite], axis=0)
+            off = np.linalg.norm(shift - typical, axis=1)
+            limit = max(3.0 * 1.4826 * float(np.median(off[finite])), 5e-4)
+            bad = ~finite | ~(off <= limit)
+            points[bad] = found.points[bad] + typical
+        else:
+            points = found.points.copy()
+        return _smoothed(points, self.result.front_times)
 
     def _reference(self) -> None:
         r = self.result

@@ -21,13 +21,15 @@ __all__ = ["PairPositions", "ball_positions"]
 @dataclass
 class PairPositions:
     """Ball centres (N, 3) ordered along the flight, their image centres per camera ((N, 2) each), the
-    silhouettes behind them, the reprojection error (pixels) and what went wrong (plain sentences)."""
+    silhouettes behind them, the reprojection error (pixels), what went wrong (plain sentences) and the two
+    photos' foreground levels."""
     points: np.ndarray
     centres: list[np.ndarray]
     silhouettes: list[list[Silhouette]]
     ellipse_points: np.ndarray
     reprojection_px: float
     warnings: list[str] = field(default_factory=list)
+    levels: tuple[float, float] = (0.0, 0.0)
 
 
 def _split(image_value: np.ndarray, found, warnings: list[str], name: str) -> list[Silhouette]:
@@ -84,4 +86,5 @@ def ball_positions(cameras: tuple[Camera, Camera], images: tuple[np.ndarray, np.
     order = np.argsort(points @ np.asarray(flight_direction, np.float64))
     error = float(np.nanmean(errors[good]))
     chosen = [[sils[c][match.pairs[n, c]] for n in order] for c in range(2)]
-    return PairPositions(points[order], [r[order] for r in refined], chosen, rough[order], error, warnings)
+    return PairPositions(points[order], [r[order] for r in refined], chosen, rough[order], error, warnings,
+                         (found[0].threshold, found[1].threshold))

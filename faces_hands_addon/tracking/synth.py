@@ -20,6 +20,7 @@ import numpy as np
 from scipy import ndimage
 
 from ..core.errors import UserError
+from .ball_model import ball_model
 from .camera import Camera, look_at, rotation_from_vector
 from .flight import MPH, RPM, fly
 from .setup import PITCH_TYPES, pitch_preset, setup_preset
@@ -159,7 +160,7 @@ def synthetic_pitch(pitch: str, seed: int, setup: dict | None = None, pitches: d
     axis /= np.linalg.norm(axis)
     rate = (spec["spin_rpm"] + rng.uniform(-1, 1) * jitter["spin_rpm"] * (spec["spin_rpm"] > 200)) * RPM
     duration = 1.25 * 18.0 / speed
-    flight = fly(release, velocity, axis * rate, duration)
+    flight = fly(release, velocity, axis * rate, duration, ball_model().physics)
     strobes = setup["strobes"]
     front = _flash_times(flight, 0.0, strobes["front"]["hz"], setup["views"]["front"], duration,
                          rng.uniform(0, 1 / strobes["front"]["hz"]))
