@@ -124,17 +124,18 @@ def _world_bone_matrices(arm) -> dict[str, np.ndarray]:
 
 
 def retarget(context, source_obj, target_arm, frames=None) -> int:
-    """Copy the hand's bone animation onto ``target_arm`` (an armature with WebXR joint names, e.g. the generic
-    hand): each matched bone turns in world space as the source bone does; returns the number of bones."""
+    """Copy the hand's bone animation onto ``target_arm``: an armature with WebXR joint names (the generic
+    hand), each matched bone turning in world space as the source bone does; or one named like a skeleton of
+    the bone map (MPFB2 game-engine/default, Mixamo, VRM, Rigify), whose hand bones of the rig's side take
+    the hand bones' turns seen in its hand (:func:`_retarget_mapped`). Returns the number of bones keyed."""
     source_arm = armature_of(source_obj)
     if source_arm is None or target_arm is None or target_arm.type != "ARMATURE":
         raise UserError("select the hand rig and an armature to retarget onto")
-    names = [b.name for b in target_arm.data.bones if b.name in source_arm.data.bones]
-    if not names:
-        raise UserError(f"'{target_arm.name}' has no bone named like the hand's (wrist, index-finger-phalanx-"
-                        "proximal, ...)")
     scene = context.scene
     frames = list(range(scene.frame_start, scene.frame_end + 1)) if frames is None else list(frames)
+    names = [b.name for b in target_arm.data.bones if b.name in source_arm.data.bones]
+    if not names:
+        return _retarget_mapped(context, get_rig(source_obj, KIND).side, source_arm, target_arm, frames)
     tw = np.array(target_arm.matrix_world)
     rest_s = {n: np.array(source_arm.matrix_world) @ np.array(source_arm.data.bones[n].matrix_local) for n in names}
     rest_t = {b.name: tw @ np.array(b.matrix_local) for b in target_arm.data.bones}
@@ -169,6 +170,38 @@ def retarget(context, source_obj, target_arm, frames=None) -> int:
         scene.frame_set(current)
     _key_quaternions(target_arm, keys, frames)
     return len(names)
+
+
+def _retarget_mapped(context, side: str, source_arm, target_arm, frames) -> int:
+    """Key the hand bones of ``target_arm`` (named like a skeleton of the bone map) from the hand armature
+    ``source_arm`` at ``frames``: the hand's frame turned onto the target's hand, each bone's turn given to
+    its mapped bone (``character.hands.fit_hand_heads``, ``retarget_basis``)."""
+    from ...faces_hands_addon.character.hands import fit_hand_heads, hand_skeleton_of
+    from ...faces_hands_addon.character.skeleton import CharacterSkeleton
+    letter = "R" if side == "right" else "L"
+    bones = list(target_arm.data.bones)
+    names = [b.name for b in bones]
+    column = hand_skeleton_of(names, letter)
+    rest = np.array([np.array(b.matrix_local) for b in bones])
+    skeleton = CharacterSkeleton(
+        column, names, np.array([names.index(b.parent.name) if b.parent else -1 for b in bones], np.int64),
+        rest[:, :3, 3].copy(), np.array([b.tail_local[:] for b in bones]), np.zeros(len(bones)),
+        np.array([b.use_connect for b in bones]), rest)
+    fit = fit_hand_heads(skeleton, {b.name: np.array(b.head_local) for b in source_arm.data.bones}, letter)
+    source_rest = {n: np.linalg.inv(np.array(source_arm.data.bones[n].matrix_local)) for n in fit.pairs}
+    keys = {bone: [] for bone in fit.pairs.values()}
+    scene = context.scene
+    current = scene.frame_current
+    try:
+        for frame in frames:
+            scene.frame_set(frame)
+            transforms = {n: np.array(source_arm.pose.bones[n].matrix) @ source_rest[n] for n in fit.pairs}
+            for bone, matrix in fit.basis(transforms).items():
+                keys[bone].append(matrix)
+    finally:
+        scene.frame_set(current)
+    _key_quaternions(target_arm, keys, frames)
+    return len(keys)
 
 
 def _key_quaternions(arm, keys: dict, frames) -> None:
