@@ -23,7 +23,7 @@ from .jobs import BakeHandJob, BuildHandJob, write_indexed_curves
 from .objects import EXPORT_ROLES, armature_of, pose_bone_rotations
 
 __all__ = ["KIND", "build_hand_object", "hand_object", "apply_pose", "animate", "bake", "export", "solve",
-           "retarget", "read_photo", "run_demo", "add_hand_object", "key_joint_angles"]
+           "retarget", "read_photo", "detect_photo", "run_demo", "add_hand_object", "key_joint_angles"]
 
 KIND = "hand"
 
@@ -32,6 +32,33 @@ def read_photo(points_path: str) -> dict:
     """A checked photo input from a feature-point JSON file (6.2.3)."""
     from ...faces_hands_addon.hand.photo import read_photo_points
     return read_photo_points(points_path)
+
+
+def detect_photo(photo_path: str, side: str, hand_length_mm: float) -> dict:
+    """A checked photo input found automatically on the photo (6.2.3's 26 points from MediaPipe's hand
+    landmarks, ``hand.photo_detect``); the photo is read by Blender (PNG, JPEG, ...) and nothing is kept."""
+    from ...faces_hands_addon.core.foreign_files import check_path
+    from ...faces_hands_addon.hand.photo import check_photo
+    from ...faces_hands_addon.hand.photo_detect import detect_photo_points
+    from ...faces_hands_addon.hand.template import reference_template
+    path = check_path(photo_path, "the photo of the hand")
+    known = set(bpy.data.images)
+    try:
+        image = bpy.data.images.load(str(path))
+    except RuntimeError:
+        raise UserError(f"{path}: Blender cannot read this image") from None
+    try:
+        width, height = image.size
+        if not width or not height:
+            raise UserError(f"{path}: Blender cannot read this image")
+        pixels = np.empty(width * height * image.channels, np.float32)
+        image.pixels.foreach_get(pixels)
+        rgb = pixels.reshape(height, width, image.channels)[::-1, :, :3].copy()
+    finally:
+        for made in [i for i in bpy.data.images if i not in known]:
+            bpy.data.images.remove(made)
+    doc = detect_photo_points(rgb, reference_template().features, side, hand_length_mm, str(path))
+    return {**check_photo(doc, str(path)), "image": str(path.resolve())}
 
 
 def build_hand_object(progress=None, name: str = "FH Hand", side: str = "right", photo: dict | None = None):
