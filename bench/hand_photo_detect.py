@@ -3,7 +3,7 @@
 
 The reference hand (its skin only, a skin-coloured material, Workbench studio light, a plain background) is
 rendered from the back by an orthographic camera; MediaPipe's hand models (the extension's numpy runtime)
-find it and ``hand.photo_detect`` maps the 21 landmarks to the 26 points (19 direct, 7 derived). Each point is
+find it and ``tracking.photo_points`` maps the 21 landmarks to the 26 points (19 direct, 7 derived). Each point is
 compared with the reference's own feature point projected by the same camera: errors in pixels and in % of
 the hand's projected length (wrist centre -> middle finger tip), direct and derived apart. The photo input is
 then warped as 6.2.3 does (the hand's length given as the ruler): the warped hand's feature points against
@@ -29,7 +29,7 @@ from mathutils import Vector  # noqa: E402
 
 from faces_hands_addon.core.errors import UserError  # noqa: E402
 from faces_hands_addon.hand.features import FEATURE_NAMES  # noqa: E402
-from faces_hands_addon.hand.photo_detect import DERIVED, detect_photo_points  # noqa: E402
+from faces_hands_addon.tracking.photo_points import DERIVED, detect_photo_points  # noqa: E402
 from faces_hands_addon.hand.rig import build_hand_rig  # noqa: E402
 from faces_hands_addon.tracking.mediapipe_hands import HandDetector  # noqa: E402
 

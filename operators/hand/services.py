@@ -36,10 +36,10 @@ def read_photo(points_path: str) -> dict:
 
 def detect_photo(photo_path: str, side: str, hand_length_mm: float) -> dict:
     """A checked photo input found automatically on the photo (6.2.3's 26 points from MediaPipe's hand
-    landmarks, ``hand.photo_detect``); the photo is read by Blender (PNG, JPEG, ...) and nothing is kept."""
+    landmarks, ``tracking.photo_points``); the photo is read by Blender (PNG, JPEG, ...) and nothing is kept."""
     from ...faces_hands_addon.core.foreign_files import check_path
     from ...faces_hands_addon.hand.photo import check_photo
-    from ...faces_hands_addon.hand.photo_detect import detect_photo_points
+    from ...faces_hands_addon.tracking.photo_points import detect_photo_points
     from ...faces_hands_addon.hand.template import reference_template
     path = check_path(photo_path, "the photo of the hand")
     known = set(bpy.data.images)

@@ -1,4 +1,4 @@
-"""The 26 feature points of 6.2.3 from MediaPipe's 21 hand landmarks (hand/photo_detect.py): the derived points
+"""The 26 feature points of 6.2.3 from MediaPipe's 21 hand landmarks (tracking/photo_points.py): the derived points
 land where the reference hand has them, on a photo from the back or from the palm, and bad photos are refused
 with a clear message (the detection itself on a rendered hand: tests/addon/hand/test_hand_photo_addon.py)."""
 from __future__ import annotations
@@ -8,7 +8,7 @@ import pytest
 
 from faces_hands_addon import UserError
 from faces_hands_addon.hand.features import FEATURE_NAMES
-from faces_hands_addon.hand.photo_detect import DERIVED, DIRECT, detect_photo_points, feature_pixels
+from faces_hands_addon.tracking.photo_points import DERIVED, DIRECT, detect_photo_points, feature_pixels
 from faces_hands_addon.hand.template import reference_template
 from test_hand_photo import STRETCH, synthetic_photo
 

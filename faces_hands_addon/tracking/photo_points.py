@@ -1,8 +1,9 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """The 26 feature points of thesis 6.2.3 (Table 6.5) found automatically on a hand photo: MediaPipe's palm
-detector and 21 hand landmarks (:class:`..tracking.mediapipe_hands.HandDetector`, the extension's own numpy
-TFLite runtime) give 19 of them directly, the other 7 are derived from those with the reference hand's own
-proportions; the result is the photo input of :mod:`.photo` (the RBF warp of 6.2.3).
+detector and 21 hand landmarks (:class:`.mediapipe_hands.HandDetector`, the extension's own numpy TFLite
+runtime) give 19 of them directly, the other 7 are derived from those with the reference hand's own
+proportions; the result is the photo input of :mod:`..hand.photo` (the RBF warp of 6.2.3). It lives beside the
+markerless tracker that shares its detector (tracking uses the hand package, not the other way round).
 
 * **Direct (19)**: finger tips I-V, DIP II-V, IP I, PIP II-V and MCP I-V are MediaPipe's ``*_tip``,
   ``*_dip``, ``thumb_ip``, ``*_pip`` and ``*_mcp`` (MediaPipe's ``thumb_mcp`` is the thumb's MCP joint, MCP I;
@@ -26,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.errors import UserError
-from .features import FEATURE_NAMES
+from ..hand.features import FEATURE_NAMES
 
 __all__ = ["DIRECT", "DERIVED", "derived_coordinates", "feature_pixels", "detect_photo_points", "SIDES_WORDS"]
 
@@ -92,7 +93,7 @@ def feature_pixels(landmarks: dict[str, np.ndarray], source_points: dict[str, np
 
 def _found(detector, image: np.ndarray, source: str) -> list:
     """The landmarks of every distinct hand in ``image`` (a hand found twice by the palm detector counts once)."""
-    from ..tracking.mediapipe_hands import SCORE
+    from .mediapipe_hands import SCORE
     hands = []
     for _, box, keypoints in detector.palms(image):
         found = detector.landmarks(image, detector.crop_from_palm(box, keypoints))
@@ -113,7 +114,7 @@ def detect_photo_points(image: np.ndarray, source_points: dict[str, np.ndarray],
     """The photo input (:func:`.photo.check_photo`) of the one hand of ``side`` in ``image`` ((H, W, 3) RGB in
     [0, 1]): its 26 feature points and, standing for the ruler, the wrist -> middle tip segment of
     ``hand_length_mm``. ``detector``: a :class:`HandDetector` (default: MediaPipe's bundled models)."""
-    from ..tracking.mediapipe_hands import LANDMARK_NAMES, HandDetector
+    from .mediapipe_hands import LANDMARK_NAMES, HandDetector
     if not (isinstance(hand_length_mm, (int, float)) and np.isfinite(hand_length_mm) and 80 <= hand_length_mm <= 300):
         raise UserError(f"the hand's length (wrist to middle finger tip) must be 80-300 mm, not {hand_length_mm!r}")
     image = np.asarray(image, np.float32)
