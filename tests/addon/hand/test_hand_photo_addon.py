@@ -143,8 +143,8 @@ def test_the_26_points_are_found_on_a_rendered_hand(bpy_clean, installed, tmp_pa
     wrist = 0.5 * (features["wrist_radial"] + features["wrist_ulnar"])
     length_mm = float(np.linalg.norm(features["middle_tip"] - wrist) * 1000)
     services = addon_module("operators.hand.services")
-    derived = addon_module("faces_hands_addon.tracking.photo_points").DERIVED
     found = services.detect_photo(str(png), "right", length_mm)
+    derived = addon_module("faces_hands_addon.tracking.photo_points").DERIVED      # imported by the call
     pixels = {n: np.array(v) for n, v in known["points"].items()}
     length_px = np.linalg.norm(pixels["middle_tip"] - 0.5 * (pixels["wrist_radial"] + pixels["wrist_ulnar"]))
     error = {n: np.linalg.norm(np.array(found["points"][n]) - pixels[n]) / length_px for n in pixels}
