@@ -4,6 +4,11 @@ wrist and finger bones through the bone map (``presets/character/bones.json``, i
 the hand rig's frame is turned onto the character's hand (wrist -> middle knuckle along the hand, little ->
 index knuckle across it). Per frame, each hand bone's turn (rest -> pose, hand space) is seen in the
 character's hand and given to its armature bone (:func:`.retarget.retarget_basis`).
+
+The same fit retargets a hand rig's finger animation onto any armature named like one of the map's
+skeletons (MPFB2 game-engine or default, Mixamo, VRM, Rigify's deforming bones): :func:`hand_skeleton_of`
+tells the skeleton from the bone names, :func:`vrm_skeleton` names an MPFB2 skeleton's bones as a VRM
+humanoid does (a VRM file's skeleton is any humanoid's, its bones known by these names).
 """
 from __future__ import annotations
 
@@ -15,7 +20,10 @@ from ..core.errors import UserError
 from .retarget import bone_map, bone_pairs, retarget_basis
 from .skeleton import CharacterSkeleton
 
-__all__ = ["HandFit", "fit_hand", "hand_fit", "hand_bone_pairs"]
+__all__ = ["HandFit", "fit_hand", "fit_hand_heads", "hand_fit", "hand_bone_pairs", "hand_skeleton_of",
+           "vrm_skeleton", "MIN_HAND_BONES"]
+
+MIN_HAND_BONES = 16          # the hand rows (wrist, 15 finger bones): a hand's armature names them all
 
 SIDE_WORDS = {"L": "left", "R": "right"}
 FRAME_JOINTS = ("wrist", "middle-finger-phalanx-proximal", "index-finger-phalanx-proximal",
@@ -83,11 +91,39 @@ def hand_fit(skeleton: CharacterSkeleton, side: str, pairs: dict, turn: np.ndarr
 
 def fit_hand(skeleton: CharacterSkeleton, hand, side: str) -> HandFit:
     """Pair ``hand`` (a hand rig of the same side) with the character's hand and turn its frame onto it."""
+    return fit_hand_heads(skeleton, {name: joint[0] for name, joint in hand.joints().items()}, side)
+
+
+def fit_hand_heads(skeleton: CharacterSkeleton, heads: dict, side: str) -> HandFit:
+    """:func:`fit_hand` for a hand known by its bones' rest ``heads`` (WebXR joint name -> head, the hand's
+    space): a hand rig's armature as Blender holds it."""
     pairs = hand_bone_pairs(skeleton, side)
-    joints = hand.joints()
     try:
-        own = _frame(*(np.asarray(joints[name][0], np.float64) for name in FRAME_JOINTS))
+        own = _frame(*(np.asarray(heads[name], np.float64) for name in FRAME_JOINTS))
         heads = [skeleton.heads[skeleton.index(pairs[name])] for name in FRAME_JOINTS]
     except KeyError as error:
         raise UserError(f"the hand rig or the bone map lacks the joint {error}; the hand cannot be placed") from None
     return hand_fit(skeleton, side, pairs, _frame(*heads) @ own.T)
+
+
+def hand_skeleton_of(bone_names, side: str) -> str:
+    """The bone map's skeleton (not ``webxr``) whose names for the ``side`` ("L"/"R") hand ``bone_names``
+    has most of; refused below :data:`MIN_HAND_BONES`."""
+    table = bone_map()
+    names = set(bone_names)
+    rows = [r for r in table.rows if r.get("webxr") and (r.get("vrm") or "").startswith(SIDE_WORDS[side])]
+    counts = {s: sum(1 for r in rows if r.get(s) in names) for s in table.skeletons if s != "webxr"}
+    best = max(counts, key=counts.get)
+    if counts[best] < MIN_HAND_BONES:
+        raise UserError(f"the armature names {counts[best]} of the {len(rows)} {SIDE_WORDS[side]} hand bones "
+                        f"of any skeleton in the bone map ({', '.join(counts)}); retarget needs all "
+                        f"{MIN_HAND_BONES} (add a column to presets/character/bones.json)")
+    return best
+
+
+def vrm_skeleton(skeleton: CharacterSkeleton) -> CharacterSkeleton:
+    """``skeleton`` (an MPFB2 one) with every bone the map names for it renamed to its VRM humanoid name."""
+    from dataclasses import replace
+    table = bone_map()
+    renamed = {r[skeleton.name]: r["vrm"] for r in table.rows if r.get(skeleton.name) and r.get("vrm")}
+    return replace(skeleton, name="vrm", names=[renamed.get(n, n) for n in skeleton.names])

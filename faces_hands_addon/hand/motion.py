@@ -21,9 +21,12 @@ Catmull-Rom tangents that let the held contractions sag before the squeeze (henc
 """
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
-from ..core.errors import UserError
+from ..core.errors import InputWarning, UserError
+from ..core.presets import resolve
 from .presets import poses_preset
 
 __all__ = ["pose_names", "motion_names", "check_preset_name", "check_pose_names", "pose_contractions", "pose_squeeze", "pose_stages", "motion_keys",
@@ -34,7 +37,9 @@ SQUEEZE_RISE = 0.3      # s the squeeze takes to rise
 
 
 def checked_contractions(values: dict, muscles: list[str], where: str) -> dict[str, float]:
-    """Contractions by muscle name, every name known and every value in [0, 1] (a clear UserError otherwise)."""
+    """Contractions by muscle name: an unknown name or a value that is not a finite number is refused (a clear
+    UserError); a number outside [0, 1] is clamped into it with an :class:`InputWarning` that names the muscle,
+    the value given, the value used and ``where`` (the preset file and pose)."""
     out = {}
     for name, value in values.items():
         if name not in muscles:
@@ -42,9 +47,17 @@ def checked_contractions(values: dict, muscles: list[str], where: str) -> dict[s
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
             raise UserError(f"{where}: contraction {name} must be a number in [0, 1], not {value!r}")
         if not 0.0 <= value <= 1.0:
-            raise UserError(f"{where}: contraction {name} = {value} is outside [0, 1]")
+            used = min(max(float(value), 0.0), 1.0)
+            warnings.warn(f"{where}: contraction {name} = {value} is outside [0, 1]; {used:g} is used",
+                          InputWarning, stacklevel=2)
+            value = used
         out[name] = float(value)
     return out
+
+
+def _where(name: str) -> str:
+    """The preset file a pose is read from (the artist's copy when there is one) and the pose, for messages."""
+    return f"{resolve('hand/poses.json')}: hand pose {name!r}"
 
 
 def pose_names() -> list[str]:
@@ -76,7 +89,7 @@ def pose_contractions(name: str, muscles: list[str]) -> dict[str, float]:
     poses = poses_preset()["poses"]
     if name not in poses:
         raise UserError(f"unknown hand pose {name!r}; the poses are {', '.join(sorted(poses))}")
-    return checked_contractions(poses[name].get("contractions", {}), muscles, f"hand pose {name!r}")
+    return checked_contractions(poses[name].get("contractions", {}), muscles, _where(name))
 
 
 def pose_squeeze(name: str, muscles: list[str]) -> dict[str, float]:
@@ -88,7 +101,7 @@ def pose_squeeze(name: str, muscles: list[str]) -> dict[str, float]:
     squeeze = poses[name].get("squeeze", {})
     if not isinstance(squeeze, dict):
         raise UserError(f"hand pose {name!r}: \"squeeze\" must map muscle names to contractions in [0, 1]")
-    return checked_contractions(squeeze, muscles, f"hand pose {name!r} squeeze")
+    return checked_contractions(squeeze, muscles, f"{_where(name)} squeeze")
 
 
 def pose_stages(name: str, muscles: list[str]) -> list[dict[str, float]]:

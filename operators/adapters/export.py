@@ -17,7 +17,10 @@ with a face's 116 shape keys: 12-20 s of a 30-s take's 24-s export, against 2 s 
 identical and the head's rotation within 0.001 degree). From keys the exporter neither slides the clip to
 0 s nor names it as asked, so those copies' keys are moved to start at frame 0 (as for FBX) and the clip is
 renamed in the file. Armatures, constraints and drivers are evaluated only by sampling, so a rig with any of
-them is sampled as before.
+them is sampled as before. Bones that constraints move (the hand's Table 6.4 limits) are keyed per exported
+frame with their constrained transform and their constraints removed on the copies, and a skinned original
+lets go of its armature while the file is written (``export_pose``), so neither exporter warns. Skin weights
+go out as the rigs give them: at most four influences per vertex, renormalised (``core.skinning``).
 """
 from __future__ import annotations
 
@@ -34,6 +37,7 @@ from mathutils import Matrix
 from ...faces_hands_addon.core.errors import UserError
 from ...faces_hands_addon.core.fbx_stamp import reproducible
 from . import export_transforms as transforms
+from .export_pose import bake_constraints, unskinned_originals
 from .blendfile import save_blend
 from .outputs import atomic_output, check_output_path
 from .poses import SIM_KEY
@@ -240,6 +244,14 @@ def _clean_copies(context, objects, placement: _Placement):
                 for block in [b for b in key.key_blocks[1:] if b.name == SIM_KEY or b.mute]:
                     copy.shape_key_remove(block)
         _place(context, objects, copies, placement, actions)
+        for copy in copies.values():                      # bones as keys, no constraints (export_pose)
+            if copy.type == "ARMATURE" and copy.pose is not None and any(len(b.constraints) for b in copy.pose.bones):
+                anim = copy.animation_data
+                if anim is not None and anim.action is not None and anim.action not in actions:
+                    actions += _own_actions(copy, 0.0, key=False)
+                bake_constraints(context, copy, [f + placement.shift for f in placement.frames])
+                if copy.animation_data.action not in actions:
+                    actions.append(copy.animation_data.action)
         context.view_layer.update()
         yield list(copies.values())
     finally:
@@ -341,7 +353,8 @@ def export_rig(context, obj, filepath: str, roles, options: ExportOptions = Expo
         scene.frame_start, scene.frame_end = first + shift, last + shift
         placement = _Placement(tuple(range(first, last + 1)), shift, options.scale,
                                _metres_per_unit(scene) if out.suffix.lower() == ".glb" else 1.0)
-        with _clean_copies(context, objects, placement) as copies, atomic_output(out) as tmp:
+        with _clean_copies(context, objects, placement) as copies, atomic_output(out) as tmp, \
+                unskinned_originals(objects):
             _select_only(context, copies)
             _write(tmp, clip, sampled, objects[0].type == "ARMATURE", options.animation)
     except RuntimeError as error:

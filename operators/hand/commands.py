@@ -24,8 +24,12 @@ class BuildHand:
     @staticmethod
     def add_arguments(parser):
         parser.add_argument("--side", choices=("right", "left"), default="right", help="which hand (default right)")
-        parser.add_argument("--photo", help="photo of a flat hand with a ruler (PNG/JPEG), with --points")
+        parser.add_argument("--photo", help="photo of a flat hand (PNG/JPEG): with --points, the clicked points; "
+                                               "alone, the points are found automatically (give --hand-length-mm)")
         parser.add_argument("--points", help="JSON with the clicked feature points and ruler marks (pixels)")
+        parser.add_argument("--hand-length-mm", type=float,
+                            help="with --photo alone: the hand's length, wrist crease to middle finger tip, in mm "
+                                 "(it stands for the ruler)")
         parser.add_argument("--name", default="FH Hand", help="name of the rig object")
         parser.add_argument("--out", required=True, help="output .blend file")
 
@@ -33,9 +37,16 @@ class BuildHand:
     def run(args, progress) -> int:
         out = check_output_path(args.out, (".blend",))
         photo = None
-        if bool(args.photo) != bool(args.points):
-            raise UserError("--photo and --points go together: the photo and the feature points clicked on it")
-        if args.points:
+        if args.points and not args.photo:
+            raise UserError("--points needs --photo: the photo the feature points were clicked on")
+        if args.photo and not args.points:
+            if args.hand_length_mm is None:
+                raise UserError("--photo alone finds the feature points automatically; give --hand-length-mm "
+                                "(wrist crease to middle finger tip) for the scale, or --points with a ruler")
+            if Path(args.photo).resolve() == out.resolve():
+                raise UserError("the output must not overwrite an input")
+            photo = services.detect_photo(args.photo, args.side, args.hand_length_mm)
+        elif args.points:
             if not Path(args.photo).is_file():
                 raise UserError(f"{args.photo} does not exist")
             if Path(args.photo).resolve() == out.resolve() or Path(args.points).resolve() == out.resolve():

@@ -181,7 +181,7 @@ class FH_OT_export_hand(HardenedOperator, ExportRigOperator, bpy.types.Operator)
 
 
 class FH_OT_retarget_hand(HardenedOperator, bpy.types.Operator):
-    """Copy the hand's baked bone animation onto the other selected armature, bone by bone with the same (WebXR) joint names"""
+    """Copy the hand's baked bone animation onto the other selected armature: its hand bones named like the WebXR joints, MPFB2, Mixamo, VRM or Rigify bones (the character bone map)"""
 
     bl_idname = "faces_hands.retarget_hand"
     bl_label = "Retarget Hand Animation"

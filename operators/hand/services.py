@@ -23,7 +23,7 @@ from .jobs import BakeHandJob, BuildHandJob, write_indexed_curves
 from .objects import EXPORT_ROLES, armature_of, pose_bone_rotations
 
 __all__ = ["KIND", "build_hand_object", "hand_object", "apply_pose", "animate", "bake", "export", "solve",
-           "retarget", "read_photo", "run_demo", "add_hand_object", "key_joint_angles"]
+           "retarget", "read_photo", "detect_photo", "run_demo", "add_hand_object", "key_joint_angles"]
 
 KIND = "hand"
 
@@ -32,6 +32,33 @@ def read_photo(points_path: str) -> dict:
     """A checked photo input from a feature-point JSON file (6.2.3)."""
     from ...faces_hands_addon.hand.photo import read_photo_points
     return read_photo_points(points_path)
+
+
+def detect_photo(photo_path: str, side: str, hand_length_mm: float) -> dict:
+    """A checked photo input found automatically on the photo (6.2.3's 26 points from MediaPipe's hand
+    landmarks, ``tracking.photo_points``); the photo is read by Blender (PNG, JPEG, ...) and nothing is kept."""
+    from ...faces_hands_addon.core.foreign_files import check_path
+    from ...faces_hands_addon.hand.photo import check_photo
+    from ...faces_hands_addon.tracking.photo_points import detect_photo_points
+    from ...faces_hands_addon.hand.template import reference_template
+    path = check_path(photo_path, "the photo of the hand")
+    known = set(bpy.data.images)
+    try:
+        image = bpy.data.images.load(str(path))
+    except RuntimeError:
+        raise UserError(f"{path}: Blender cannot read this image") from None
+    try:
+        width, height = image.size
+        if not width or not height:
+            raise UserError(f"{path}: Blender cannot read this image")
+        pixels = np.empty(width * height * image.channels, np.float32)
+        image.pixels.foreach_get(pixels)
+        rgb = pixels.reshape(height, width, image.channels)[::-1, :, :3].copy()
+    finally:
+        for made in [i for i in bpy.data.images if i not in known]:
+            bpy.data.images.remove(made)
+    doc = detect_photo_points(rgb, reference_template().features, side, hand_length_mm, str(path))
+    return {**check_photo(doc, str(path)), "image": str(path.resolve())}
 
 
 def build_hand_object(progress=None, name: str = "FH Hand", side: str = "right", photo: dict | None = None):
@@ -124,17 +151,18 @@ def _world_bone_matrices(arm) -> dict[str, np.ndarray]:
 
 
 def retarget(context, source_obj, target_arm, frames=None) -> int:
-    """Copy the hand's bone animation onto ``target_arm`` (an armature with WebXR joint names, e.g. the generic
-    hand): each matched bone turns in world space as the source bone does; returns the number of bones."""
+    """Copy the hand's bone animation onto ``target_arm``: an armature with WebXR joint names (the generic
+    hand), each matched bone turning in world space as the source bone does; or one named like a skeleton of
+    the bone map (MPFB2 game-engine/default, Mixamo, VRM, Rigify), whose hand bones of the rig's side take
+    the hand bones' turns seen in its hand (:func:`_retarget_mapped`). Returns the number of bones keyed."""
     source_arm = armature_of(source_obj)
     if source_arm is None or target_arm is None or target_arm.type != "ARMATURE":
         raise UserError("select the hand rig and an armature to retarget onto")
-    names = [b.name for b in target_arm.data.bones if b.name in source_arm.data.bones]
-    if not names:
-        raise UserError(f"'{target_arm.name}' has no bone named like the hand's (wrist, index-finger-phalanx-"
-                        "proximal, ...)")
     scene = context.scene
     frames = list(range(scene.frame_start, scene.frame_end + 1)) if frames is None else list(frames)
+    names = [b.name for b in target_arm.data.bones if b.name in source_arm.data.bones]
+    if not names:
+        return _retarget_mapped(context, get_rig(source_obj, KIND).side, source_arm, target_arm, frames)
     tw = np.array(target_arm.matrix_world)
     rest_s = {n: np.array(source_arm.matrix_world) @ np.array(source_arm.data.bones[n].matrix_local) for n in names}
     rest_t = {b.name: tw @ np.array(b.matrix_local) for b in target_arm.data.bones}
@@ -169,6 +197,38 @@ def retarget(context, source_obj, target_arm, frames=None) -> int:
         scene.frame_set(current)
     _key_quaternions(target_arm, keys, frames)
     return len(names)
+
+
+def _retarget_mapped(context, side: str, source_arm, target_arm, frames) -> int:
+    """Key the hand bones of ``target_arm`` (named like a skeleton of the bone map) from the hand armature
+    ``source_arm`` at ``frames``: the hand's frame turned onto the target's hand, each bone's turn given to
+    its mapped bone (``character.hands.fit_hand_heads``, ``retarget_basis``)."""
+    from ...faces_hands_addon.character.hands import fit_hand_heads, hand_skeleton_of
+    from ...faces_hands_addon.character.skeleton import CharacterSkeleton
+    letter = "R" if side == "right" else "L"
+    bones = list(target_arm.data.bones)
+    names = [b.name for b in bones]
+    column = hand_skeleton_of(names, letter)
+    rest = np.array([np.array(b.matrix_local) for b in bones])
+    skeleton = CharacterSkeleton(
+        column, names, np.array([names.index(b.parent.name) if b.parent else -1 for b in bones], np.int64),
+        rest[:, :3, 3].copy(), np.array([b.tail_local[:] for b in bones]), np.zeros(len(bones)),
+        np.array([b.use_connect for b in bones]), rest)
+    fit = fit_hand_heads(skeleton, {b.name: np.array(b.head_local) for b in source_arm.data.bones}, letter)
+    source_rest = {n: np.linalg.inv(np.array(source_arm.data.bones[n].matrix_local)) for n in fit.pairs}
+    keys = {bone: [] for bone in fit.pairs.values()}
+    scene = context.scene
+    current = scene.frame_current
+    try:
+        for frame in frames:
+            scene.frame_set(frame)
+            transforms = {n: np.array(source_arm.pose.bones[n].matrix) @ source_rest[n] for n in fit.pairs}
+            for bone, matrix in fit.basis(transforms).items():
+                keys[bone].append(matrix)
+    finally:
+        scene.frame_set(current)
+    _key_quaternions(target_arm, keys, frames)
+    return len(keys)
 
 
 def _key_quaternions(arm, keys: dict, frames) -> None:

@@ -43,6 +43,21 @@ def _glb_json(path: Path) -> dict:
     return json.loads(data[20:20 + struct.unpack_from("<I", data, 12)[0]])
 
 
+def _glb_accessor(path: Path, doc: dict, index: int) -> np.ndarray:
+    """Accessor ``index`` of the GLB ``path`` as an array (rows x components)."""
+    data = path.read_bytes()
+    start = 20 + struct.unpack_from("<I", data, 12)[0] + 8
+    accessor = doc["accessors"][index]
+    view = doc["bufferViews"][accessor["bufferView"]]
+    dtype = {5126: np.float32, 5121: np.uint8, 5123: np.uint16}[accessor["componentType"]]
+    width = {"SCALAR": 1, "VEC3": 3, "VEC4": 4, "MAT4": 16}[accessor["type"]]
+    values = np.frombuffer(data, dtype, accessor["count"] * width,
+                           start + view.get("byteOffset", 0) + accessor.get("byteOffset", 0))
+    if accessor.get("normalized"):
+        values = values / np.iinfo(dtype).max
+    return values.reshape(accessor["count"], width)
+
+
 def _state(bpy):
     return {o.name: ({k: repr(o[k]) for k in o.keys() if k != "fh_rig_data"}, [list(r) for r in o.matrix_basis])
             for o in bpy.data.objects}
@@ -127,7 +142,12 @@ def test_apply_hand_pose_sets_a_staged_pose_stage_by_stage(bpy_clean):
         {n: motion.pose_contractions("point", names).get(n, 0.0) for n in names})
 
 
-def test_bake_and_export_glb_and_fbx(bpy_clean, tmp_path):
+def test_bake_and_export_glb_and_fbx(bpy_clean, tmp_path, capfd):
+    """Every export carries the skeleton: in the GLB the armature is the skin's parent, four joint influences
+    per vertex summing to 1, rotation keys on the finger bones and the bulge shape keys' weights animated with
+    the contractions; the FBX re-imported has the bones, weights, keys and their animation; both play where the
+    scene has the hand (skin vertices within 0.1 mm at four frames) and the exporters warn of nothing (no
+    skinned mesh outside its armature, no constraints left to bake)."""
     bpy = bpy_clean
     obj = _build(bpy)
     services = addon_module("operators.hand.services")
@@ -138,17 +158,39 @@ def test_bake_and_export_glb_and_fbx(bpy_clean, tmp_path):
     assert "103 frames" in report
     keys = [k.name for k in obj.data.shape_keys.key_blocks if k.name.startswith("FH.")]
     assert 20 <= len(keys) <= 40 and sum(k.startswith("FH.bulge.") for k in keys) == 9
+    capfd.readouterr()
     glb = services.export(bpy.context, obj, str(tmp_path / "hand.glb"))
+    log = capfd.readouterr()
+    assert "Armature must be the parent" not in log.out + log.err and "Baking animation" not in log.out + log.err
+    arm = _armature(obj)
+    assert obj.modifiers["Armature"].object == arm and all(len(b.constraints) == 1 for b in arm.pose.bones)
     doc = _glb_json(glb)
     assert len(doc["skins"]) == 1
     joint_names = {doc["nodes"][j]["name"] for j in doc["skins"][0]["joints"]}
     assert WEBXR_NAMES <= joint_names
+    skinned = next(i for i, n in enumerate(doc["nodes"]) if "skin" in n)
+    parent = next(n for n in doc["nodes"] if skinned in n.get("children", ()))
+    assert "skin" not in parent and "mesh" not in parent and parent["name"] == arm.name     # the armature
     mesh = next(m for m in doc["meshes"] if "targets" in m["primitives"][0])
     assert len(mesh["primitives"][0]["targets"]) == len(keys) and mesh["extras"]["targetNames"] == keys
-    channels = [c for a in doc["animations"] for c in a["channels"]]
+    attributes = mesh["primitives"][0]["attributes"]
+    assert "JOINTS_1" not in attributes
+    weights = _glb_accessor(glb, doc, attributes["WEIGHTS_0"])
+    assert np.allclose(weights.sum(axis=1), 1.0, atol=2e-3) and (weights > 0).sum(axis=1).max() <= 4
+    assert (weights > 0).sum(axis=1).max() >= 3                  # blended, not one bone per vertex
+    animation = doc["animations"][0]
+    channels = animation["channels"]
     assert {c["target"]["path"] for c in channels} >= {"rotation", "weights"}
     rotated = {doc["nodes"][c["target"]["node"]]["name"] for c in channels if c["target"]["path"] == "rotation"}
     assert "index-finger-phalanx-proximal" in rotated
+    curl = next(c for c in channels if c["target"]["path"] == "rotation"
+                and doc["nodes"][c["target"]["node"]]["name"] == "middle-finger-phalanx-intermediate")
+    quaternions = _glb_accessor(glb, doc, animation["samplers"][curl["sampler"]]["output"])
+    assert np.degrees(2 * np.arccos(np.clip(np.abs(quaternions[:, 3]), 0, 1))).max() > 60     # the fist curls it
+    morph = next(c for c in channels if c["target"]["path"] == "weights")
+    played = _glb_accessor(glb, doc, animation["samplers"][morph["sampler"]]["output"]).reshape(-1, len(keys))
+    bulges = played[:, [i for i, k in enumerate(keys) if k.startswith("FH.bulge.")]]
+    assert bulges.max() > 0.3 and bulges[0].max() < 0.05     # the fist contracts what the open hand does not
     influences = np.array([sum(g.weight > 0 for g in v.groups) for v in obj.data.vertices])
     assert influences.max() <= 4                  # what glTF's JOINTS_0 holds and three.js plays
     obj.rotation_euler = (0.4, -0.2, 1.3)         # a hand the artist turned and moved
@@ -162,8 +204,13 @@ def test_bake_and_export_glb_and_fbx(bpy_clean, tmp_path):
         imported = reimport(bpy, path, 30)
         armature = next(o for o in imported if o.type == "ARMATURE")
         skin = next(o for o in imported if o.type == "MESH" and o.data.shape_keys is not None)
+        assert skin.parent == armature and skin.modifiers[0].object == armature, path.suffix
         assert WEBXR_NAMES <= {b.name for b in armature.data.bones}, path.suffix
         assert WEBXR_NAMES <= {g.name for g in skin.vertex_groups}, path.suffix
+        sums = np.array([sum(g.weight for g in v.groups) for v in skin.data.vertices])
+        assert np.allclose(sums, 1.0, atol=2e-3) and max(len(v.groups) for v in skin.data.vertices) <= 4, path.suffix
+        assert {k.name for k in skin.data.shape_keys.key_blocks} >= set(keys), path.suffix
+        assert skin.data.shape_keys.animation_data.action is not None, path.suffix
         assert armature.animation_data is not None and armature.animation_data.action is not None, path.suffix
         errors = placement_errors(wanted, world_vertices(bpy, imported, [f - 1 for f in frames], names))
         assert max(errors.values()) <= 1e-4, (path.suffix, errors)
@@ -190,6 +237,67 @@ def test_retarget_onto_the_webxr_generic_hand(bpy_clean, installed):
         return posed @ rest.T
     assert np.allclose(turned(bone, target), turned(source, _armature(obj)), atol=1e-4)
     assert math.degrees(math.acos((np.trace(turned(bone, target)) - 1) / 2)) > 60     # the finger curled
+
+
+def _armature_from_skeleton(bpy, skeleton):
+    """A Blender armature with the engine skeleton's bones (heads, tails, rolls, parents)."""
+    data = bpy.data.armatures.new(skeleton.name)
+    arm = bpy.data.objects.new(skeleton.name, data)
+    bpy.context.scene.collection.objects.link(arm)
+    bpy.context.view_layer.objects.active = arm
+    bpy.ops.object.mode_set(mode="EDIT")
+    for k, name in enumerate(skeleton.names):
+        bone = data.edit_bones.new(name)
+        bone.head, bone.tail, bone.roll = skeleton.heads[k], skeleton.tails[k], float(skeleton.rolls[k])
+        if skeleton.parents[k] >= 0:
+            bone.parent = data.edit_bones[skeleton.names[skeleton.parents[k]]]
+    bpy.ops.object.mode_set(mode="OBJECT")
+    return arm
+
+
+def test_retarget_a_fist_onto_mpfb2_mixamo_and_vrm_hands(bpy_clean):
+    """The fist keyed on the hand rig, retargeted onto MPFB2's game-engine and default skeletons, Mixamo's and a
+    VRM-named one built as Blender armatures: every finger bone of the target turns as far relative to its
+    wrist as the hand's bone does (within 2 degrees), and the fingers curl."""
+    bpy = bpy_clean
+    obj = _build(bpy)
+    rig = addon_module("operators.adapters.rig_store").get_rig(obj, "hand")
+    motion = addon_module("faces_hands_addon.hand.motion")
+    rig.settled_stages(motion.pose_stages("fist", rig.muscle_names))
+    services = addon_module("operators.hand.services")
+    services.key_joint_angles(obj, rig, [1], [rig.joint_angles])
+    body = addon_module("faces_hands_addon.character.body")
+    built = addon_module("faces_hands_addon.character.skeleton")
+    hands = addon_module("faces_hands_addon.character.hands")
+    mesh = body.character_mesh()
+    source = _armature(obj)
+    bpy.context.scene.frame_set(1)
+
+    def bends(arm, wrist):
+        turn = {b.name: np.array(b.matrix)[:3, :3] @ np.array(b.bone.matrix_local)[:3, :3].T for b in arm.pose.bones}
+        return {n: math.degrees(math.acos(np.clip((np.trace(turn[wrist].T @ t) - 1) / 2, -1, 1)))
+                for n, t in turn.items()}
+
+    for name in ("game_engine", "default", "mixamo", "vrm"):
+        skeleton = built.build_skeleton("game_engine" if name == "vrm" else name, mesh)
+        skeleton = hands.vrm_skeleton(skeleton) if name == "vrm" else skeleton
+        target = _armature_from_skeleton(bpy, skeleton)
+        count = services.retarget(bpy.context, obj, target, frames=[1])
+        assert count == 16, name
+        bpy.context.scene.frame_set(1)
+        pairs = hands.hand_bone_pairs(skeleton, "R")
+        mine, theirs = bends(source, "wrist"), bends(target, pairs["wrist"])
+        for bone, other in pairs.items():
+            assert theirs[other] == pytest.approx(mine[bone], abs=2.0), (name, bone, other)
+        assert sum(mine[b] > 30 for b in pairs) >= 8, name
+    stranger = built.build_skeleton("mixamo", mesh)
+    keep = [k for k, n in enumerate(stranger.names) if "RightHandIndex" not in n and stranger.parents[k] < k]
+    stranger = _armature_from_skeleton(bpy, type(stranger)(
+        "stranger", [stranger.names[k] for k in keep], np.array([keep.index(stranger.parents[k])
+                                                                 if stranger.parents[k] in keep else -1 for k in keep]),
+        stranger.heads[keep], stranger.tails[keep], stranger.rolls[keep], stranger.connected[keep], stranger.rest[keep]))
+    with pytest.raises(addon_module("faces_hands_addon.core.errors").UserError, match="retarget needs all 16"):
+        services.retarget(bpy.context, obj, stranger, frames=[1])        # a hand without its index finger
 
 
 def test_a_left_hand_is_mirrored_and_curls_the_same_way(bpy_clean):

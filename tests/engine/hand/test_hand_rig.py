@@ -247,29 +247,48 @@ def test_every_preset_pose_and_motion_reads(rig):
         assert table.shape == (len(times), 42) and table.min() >= 0 and table.max() <= 1
 
 
-def test_contractions_outside_0_1_in_a_preset_are_refused(rig, tmp_path):
+def test_contractions_outside_0_1_in_a_preset_are_clamped_with_a_warning(rig, tmp_path):
+    """A preset contraction outside [0, 1] is clamped with a warning that names the muscle, the value and the
+    file (the hand's bad-input rule: "contractions out of range clamped with a warning"; refused before);
+    a value that is no finite number, or an unknown muscle, is still refused."""
     from faces_hands_addon.core import presets
+    from faces_hands_addon.core.errors import InputWarning
     doc = json.loads((presets.SHIPPED_FOLDER / "hand" / "poses.json").read_text())
     doc["poses"]["fist"]["contractions"]["flexor_digitorum_profundus_index"] = 1.5
+    doc["poses"]["fist"]["contractions"]["extensor_digitorum_index"] = -0.25
     (tmp_path / "hand").mkdir()
-    (tmp_path / "hand" / "poses.json").write_text(json.dumps(doc))
+    path = tmp_path / "hand" / "poses.json"
+    path.write_text(json.dumps(doc))
     before = presets.user_folder()
     presets.set_user_folder(tmp_path)
     try:
-        with pytest.raises(UserError, match=r"1.5 is outside \[0, 1\]"):
+        with pytest.warns(InputWarning) as caught:
+            values = motion.pose_contractions("fist", rig.muscle_names)
+        messages = [str(w.message) for w in caught]
+        assert any(str(path) in m and "flexor_digitorum_profundus_index = 1.5" in m and "1 is used" in m
+                   for m in messages), messages
+        assert any("extensor_digitorum_index = -0.25" in m and "0 is used" in m for m in messages), messages
+        assert values["flexor_digitorum_profundus_index"] == 1.0 and values["extensor_digitorum_index"] == 0.0
+        doc["poses"]["fist"]["contractions"]["flexor_digitorum_profundus_index"] = "1.5"
+        path.write_text(json.dumps(doc))
+        with pytest.raises(UserError, match="must be a number"):
             motion.pose_contractions("fist", rig.muscle_names)
     finally:
         presets.set_user_folder(before)
     with pytest.raises(UserError, match="unknown hand muscle"):
         motion.checked_contractions({"biceps": 0.5}, rig.muscle_names, "test")
+    with pytest.raises(UserError, match="must be a number in"):
+        motion.checked_contractions({"extensor_digitorum_index": float("nan")}, rig.muscle_names, "test")
 
 
-@pytest.mark.parametrize("squeeze, message", [({"opponens_pollicis": 1.5}, r"squeeze: contraction opponens_pollicis = 1.5 is outside \[0, 1\]"),
+@pytest.mark.parametrize("squeeze, message", [({"opponens_pollicis": 1.5}, r"squeeze: contraction opponens_pollicis = 1.5 is outside \[0, 1\]; 1 is used"),
                                               ({"biceps": 0.5}, "squeeze: unknown hand muscle 'biceps'")])
 def test_a_pose_squeeze_is_checked_like_its_contractions(rig, tmp_path, squeeze, message):
-    """A staged pose's second stage (hand/motion.py) gets the contractions' messages; a file without any
-    squeeze (the format before it) still reads, each pose one stage."""
+    """A staged pose's second stage (hand/motion.py) gets the contractions' messages (a value out of range
+    clamped with a warning, an unknown muscle refused); a file without any squeeze (the format before it)
+    still reads, each pose one stage."""
     from faces_hands_addon.core import presets
+    from faces_hands_addon.core.errors import InputWarning
     doc = json.loads((presets.SHIPPED_FOLDER / "hand" / "poses.json").read_text())
     (tmp_path / "hand").mkdir()
     before = presets.user_folder()
@@ -281,8 +300,13 @@ def test_a_pose_squeeze_is_checked_like_its_contractions(rig, tmp_path, squeeze,
         assert all(len(motion.pose_stages(n, rig.muscle_names)) == 1 for n in motion.pose_names())
         doc["poses"]["fist"]["squeeze"] = squeeze
         (tmp_path / "hand" / "poses.json").write_text(json.dumps(doc))
-        with pytest.raises(UserError, match=message):
-            motion.pose_stages("fist", rig.muscle_names)
+        if "unknown" in message:
+            with pytest.raises(UserError, match=message):
+                motion.pose_stages("fist", rig.muscle_names)
+        else:
+            with pytest.warns(InputWarning, match=message):
+                stages = motion.pose_stages("fist", rig.muscle_names)
+            assert stages[1]["opponens_pollicis"] == 1.0
     finally:
         presets.set_user_folder(before)
 
