@@ -21,6 +21,7 @@ import numpy as np
 
 from ...faces_hands_addon.anim.glb_clip import Clip, add_clip, euler_quaternions
 from . import export_transforms as transforms
+from .fcurves import existing_channelbag
 from .export import ExportOptions, export_objects, export_rig, exported_keys
 from .outputs import atomic_output, check_output_path
 
@@ -35,9 +36,9 @@ def forget_still() -> None:
 
 def can_write_clip(obj, roles, terms, target_names) -> bool:
     """True when the export of ``obj`` (and its parts of ``roles``) moves only by the clip this module
-    writes: the weights of ``target_names`` (every shape key the export writes is one of them), and drivers
-    on the rotations of the head chain's bones (``terms``); no object moved by keys, drivers, constraints
-    or its parents."""
+    writes: the weights of ``target_names`` (any other shape key the export writes neither keyed nor driven),
+    and drivers on the rotations of the head chain's bones (``terms``); no object moved by keys, drivers,
+    constraints or its parents."""
     objects = export_objects(obj, roles)
     armatures = [o for o in objects if o.type == "ARMATURE"]
     if len(armatures) != 1 or not terms:
@@ -51,7 +52,7 @@ def can_write_clip(obj, roles, terms, target_names) -> bool:
         if other.type == "MESH":
             if anim is not None and any(d.data_path in transforms.TRANSFORM_PATHS for d in anim.drivers):
                 return False
-            if not set(exported_keys(other)) <= names:
+            if any(_moving_key(other, name) for name in set(exported_keys(other)) - names):
                 return False
         elif other.type == "ARMATURE":
             if anim is not None and anim.action is not None:
@@ -65,6 +66,20 @@ def can_write_clip(obj, roles, terms, target_names) -> bool:
         else:
             return False
     return True
+
+
+def _moving_key(mesh, name: str) -> bool:
+    """Is the shape key ``name`` of ``mesh`` keyed or driven? (One that is neither holds its value: the
+    still file's default weight, which the clip keeps for targets it does not name.)"""
+    key = mesh.data.shape_keys
+    path = f'key_blocks["{name}"].value'
+    anim = key.animation_data if key is not None else None
+    if anim is None:
+        return False
+    if any(d.data_path == path for d in anim.drivers):
+        return True
+    bag = existing_channelbag(key)
+    return bag is not None and any(curve.data_path == path for curve in bag.fcurves)
 
 
 def clip_of_bake(obj, roles, name: str, fit, table, fps: float, terms=None, specs=None, head=(),

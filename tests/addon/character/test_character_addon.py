@@ -170,7 +170,9 @@ def test_a_takes_glb_from_the_still_export_and_the_engines_clip_is_blenders_expo
     per-frame sampling) against Blender's own exporter sampling the same scene: the same nodes at the same
     rest, the same morph targets, the same key times, the skin's weights bit for bit, the neck and head
     bones' rotations to 0.005 degrees, and no other joint moving in Blender's file. A head turn the
-    clip left out, or a weight put on the wrong target, fails here."""
+    clip left out, or a weight put on the wrong target, fails here. A shape key of the artist's, neither
+    keyed nor driven, keeps its weight (0.25) as Blender writes it; once keyed, Blender's exporter writes
+    the take."""
     bpy, body = character
     performance = addon_module("faces_hands_addon.performance")
     perform, take_of = performance.perform, performance.take_of
@@ -183,6 +185,11 @@ def test_a_takes_glb_from_the_still_export_and_the_engines_clip_is_blenders_expo
     roles = addon_module("operators.face.objects").EXPORT_ROLES
     if body.animation_data is not None:
         body.animation_data.action = None                       # an earlier test's keys
+    if body.data.shape_keys is None or "Artist Key" not in body.data.shape_keys.key_blocks:
+        body.shape_key_add(name="Basis" if body.data.shape_keys is None else "Artist Key", from_mix=False)
+        if "Artist Key" not in body.data.shape_keys.key_blocks:
+            body.shape_key_add(name="Artist Key", from_mix=False)
+    body.data.shape_keys.key_blocks["Artist Key"].value = 0.25
     scene = bpy.context.scene
     scene.render.fps, scene.render.fps_base = 30, 1.0
     scene.frame_start = 0
@@ -200,6 +207,7 @@ def test_a_takes_glb_from_the_still_export_and_the_engines_clip_is_blenders_expo
                                    export.ExportOptions(clip="take"))
     (doc, ours_at), (ref, ref_at) = _glb(ours), _glb(theirs)
     assert len(doc["animations"][0]["channels"]) == 3          # the skin's weights, neck_01 and head
+    artist = doc["meshes"][0]["extras"]["targetNames"].index("Artist Key")
 
     def clip(document, accessor):
         names = [n.get("name") for n in document["nodes"]]
@@ -225,9 +233,18 @@ def test_a_takes_glb_from_the_still_export_and_the_engines_clip_is_blenders_expo
             # samples the take's float64 track: 2e-5 of a unit quaternion is 0.002 degrees
             np.testing.assert_allclose(values, ref_values, atol=5e-5, err_msg=str(key))
     assert np.ptp(channels[("head", "rotation")][1], axis=0).max() > 1e-3   # the head does turn
+    count = len(doc["meshes"][0]["extras"]["targetNames"])
+    assert np.all(channels[("FH Character", "weights")][1].reshape(-1, count)[:, artist] == np.float32(0.25))
     names = [n.get("name") for n in ref["nodes"]]
     for key, (_, values) in ref_channels.items():
         if key not in channels:
             rest = ref["nodes"][names.index(key[0])].get(
                 key[1], {"rotation": [0, 0, 0, 1], "translation": [0, 0, 0], "scale": [1, 1, 1]}[key[1]])
             np.testing.assert_allclose(values, np.broadcast_to(rest, values.shape), atol=1e-6, err_msg=str(key))
+    blink = body.data.shape_keys.key_blocks["Artist Key"]          # keyed now: the clip cannot know it
+    blink.value = 0.0
+    blink.keyframe_insert("value", frame=0)
+    blink.value = 1.0
+    blink.keyframe_insert("value", frame=5)
+    keyed, _ = _glb(services._save_take(body, tmp_path / "keyed.glb", (job, engine_take)))
+    assert len(keyed["animations"][0]["channels"]) > 3               # Blender's exporter took it
