@@ -280,7 +280,10 @@ def main() -> None:
             subset.write_text("".join(path.read_text().splitlines(keepends=True)[:args.openjd_rows + 1]))
             figures.update(openjd(subset, folder, args.chunk, folder / "out1"))
     finally:
-        shutil.rmtree(folder, ignore_errors=True)
+        if os.environ.get("FH_BENCH_KEEP") == "1":
+            print(f"kept {folder}")
+        else:
+            shutil.rmtree(folder, ignore_errors=True)
     for key, value in figures.items():
         print(f"{key:28s} {value:.3f}" if isinstance(value, float) else f"{key:28s} {value}")
     print("RESULT " + " ".join(f"{k}={v:.3f}" if isinstance(v, float) else f"{k}={v}" for k, v in figures.items()))
