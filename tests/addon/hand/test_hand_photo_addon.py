@@ -41,6 +41,8 @@ def _photo(bpy, tmp_path: Path) -> tuple[Path, Path, dict]:
     scene = bpy.context.scene
     render = addon_module("operators.adapters.render")
     render.setup_workbench(scene, SIZE)
+    scene.display.shading.color_type = "MATERIAL"      # the skin's colour on every line (4.5 shows no colour
+    # attribute as grey)
     camera_data = bpy.data.cameras.new("photo")
     camera_data.type, camera_data.ortho_scale = "ORTHO", 0.3
     camera = bpy.data.objects.new("photo", camera_data)
