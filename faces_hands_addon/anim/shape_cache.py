@@ -25,6 +25,7 @@ import os
 import tempfile
 import zipfile
 from pathlib import Path
+from stat import S_ISREG
 from typing import Callable, Mapping
 
 import numpy as np
@@ -182,7 +183,7 @@ def _stamp(path: Path):
         stat = path.stat()
     except OSError:
         return None
-    return (stat.st_size, stat.st_mtime_ns) if path.is_file() else None
+    return (stat.st_size, stat.st_mtime_ns) if S_ISREG(stat.st_mode) else None
 
 
 def _read(path: Path) -> Pose | None:

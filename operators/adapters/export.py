@@ -25,8 +25,6 @@ go out as the rigs give them: at most four influences per vertex, renormalised (
 from __future__ import annotations
 
 import contextlib
-import json
-import struct
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -34,6 +32,7 @@ import bpy
 import numpy as np
 from mathutils import Matrix
 
+from ...faces_hands_addon.anim.glb_clip import glb_bytes, glb_parts
 from ...faces_hands_addon.core.errors import UserError
 from ...faces_hands_addon.core.fbx_stamp import reproducible
 from . import export_transforms as transforms
@@ -299,18 +298,12 @@ def _needs_sampling(objects) -> bool:
 
 def _name_clip(path: Path, clip: str) -> None:
     """Rename the GLB's one animation to ``clip`` (its JSON chunk rewritten, the BIN chunk kept)."""
-    blob = path.read_bytes()
-    json_length = struct.unpack_from("<I", blob, 12)[0]
-    doc = json.loads(blob[20:20 + json_length])
+    doc, binary = glb_parts(path.read_bytes())
     animations = doc.get("animations", [])
     if len(animations) != 1 or animations[0].get("name") == clip:
         return
     animations[0]["name"] = clip
-    text = json.dumps(doc, separators=(",", ":"), ensure_ascii=False).encode("utf-8")
-    text += b" " * (-len(text) % 4)
-    rest = blob[20 + json_length:]
-    path.write_bytes(struct.pack("<4sII", b"glTF", 2, 12 + 8 + len(text) + len(rest))
-                     + struct.pack("<I4s", len(text), b"JSON") + text + rest)
+    path.write_bytes(glb_bytes(doc, binary))
 
 
 def _write(path: Path, clip: str, sampled: bool = True, armature: bool = False, animation: bool = True) -> None:

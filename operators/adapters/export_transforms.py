@@ -20,7 +20,7 @@ from mathutils import Matrix
 
 from . import fcurves
 
-__all__ = ["TRANSFORM_PATHS", "transform_curves", "moves", "ancestors_move", "world_track", "local_track",
+__all__ = ["TRANSFORM_PATHS", "transform_curves", "moves", "moved_by_others", "ancestors_move", "world_track", "local_track",
            "key_track"]
 
 TRANSFORM_PATHS = ("location", "rotation_euler", "rotation_quaternion", "rotation_axis_angle", "scale",
@@ -40,7 +40,7 @@ def moves(obj) -> bool:
     return bool(transform_curves(obj))
 
 
-def _moved_by_others(obj) -> bool:
+def moved_by_others(obj) -> bool:
     """Do drivers or constraints move ``obj``?"""
     anim = obj.animation_data
     return bool(obj.constraints) or (anim is not None and any(d.data_path in TRANSFORM_PATHS for d in anim.drivers))
@@ -53,7 +53,7 @@ def ancestors_move(obj) -> bool:
         if obj.parent_type != "OBJECT":
             return True
         obj = obj.parent
-        if moves(obj) or _moved_by_others(obj):
+        if moves(obj) or moved_by_others(obj):
             return True
     return False
 

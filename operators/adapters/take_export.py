@@ -25,13 +25,9 @@ from .fcurves import existing_channelbag
 from .export import ExportOptions, export_objects, export_rig, exported_keys
 from .outputs import atomic_output, check_output_path
 
-__all__ = ["clip_of_bake", "can_write_clip", "write_take_glb", "forget_still"]
+__all__ = ["clip_of_bake", "can_write_clip", "write_take_glb"]
 
 _STILL: dict = {}          # key -> still GLB bytes (the last one only)
-
-
-def forget_still() -> None:
-    _STILL.clear()
 
 
 def can_write_clip(obj, roles, terms, target_names) -> bool:
@@ -47,11 +43,9 @@ def can_write_clip(obj, roles, terms, target_names) -> bool:
     names = set(target_names)
     for other in objects:
         anim = other.animation_data
-        if other.constraints or transforms.moves(other) or transforms.ancestors_move(other):
+        if transforms.moves(other) or transforms.moved_by_others(other) or transforms.ancestors_move(other):
             return False
         if other.type == "MESH":
-            if anim is not None and any(d.data_path in transforms.TRANSFORM_PATHS for d in anim.drivers):
-                return False
             if any(_moving_key(other, name) for name in set(exported_keys(other)) - names):
                 return False
         elif other.type == "ARMATURE":
