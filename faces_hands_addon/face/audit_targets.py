@@ -5,7 +5,12 @@ emotion, the figures it must reach (mm, degrees, counts). Where the numbers come
 smile width and corner angle; interincisal opening; incisor show at rest).
 
 A check is ``(key, low, high, relative)``: the figure ``key`` (``{S}`` = the shape's own side, ``{O}`` the
-other) must lie in [low, high]; ``relative`` compares it to the settled neutral's value. Every shape also
+other) must lie in [low, high]; ``relative`` True compares it to the settled neutral's value, ``REST`` to the
+mesh as modelled: the figure may not exceed ``max(high, modelled + REST_STEP)``. Silence is the face at
+rest (its articulation sets every muscle to 0) and fitting keeps the artist's mesh as the rest (3.1.2), so a
+head modelled with parted lips shows that opening in silence; the check asks that the rig open the lips and
+show the teeth no further than modelled (within the audit's 0.5 mm sampling step) and is never laxer than
+``high`` (a head modelled with its lips together is held to the same 1 mm). Every shape also
 has no inverted triangle and no lip node inside a tooth, moves (unless it is the neutral), and is
 left/right symmetric (symmetric shapes: its own mirror; one-sided shapes: against its other side's shape).
 """
@@ -18,6 +23,8 @@ from .audit import Probe, measure, pair_asymmetry, settle_expression
 __all__ = ["TARGETS", "shape_targets", "audit_shapes", "check"]
 
 INF = float("inf")
+REST = "rest"                # a check against the rest mesh as modelled (module docstring)
+REST_STEP = 0.5              # mm: the teeth-shown sample spacing (audit._shown), the tolerance over the modelled rest
 ASYM_MM = 1.0                # 95th percentile of the left/right displacement difference
 
 
@@ -69,8 +76,8 @@ SYMMETRIC = {
     "mouthShrugLower": [("lower_lip_up", 1.5, INF, False)],
     "mouthShrugUpper": [("upper_lip_up", 1.0, INF, False)],
     "tongueOut": [("tongue_out", 0.0, INF, False)],
-    "viseme_sil": [("lip_gap", -INF, 1.0, False), ("upper_show", -INF, 0.5, False),
-                   ("lower_show", -INF, 0.5, False)],
+    "viseme_sil": [("lip_gap", -INF, 1.0, REST), ("upper_show", -INF, 0.5, REST),
+                   ("lower_show", -INF, 0.5, REST)],
     "viseme_PP": [("lip_gap", -INF, 0.3, False)],
     "viseme_FF": [("ff_dist", -INF, 2.5, False), ("upper_show", 1.0, INF, False)],
     "viseme_TH": [("tongue_front", 0.0, INF, False)],
@@ -122,14 +129,20 @@ def mirror_name(name: str) -> str | None:
     return None
 
 
-def check(name: str, m: dict, neutral: dict, pair_asym: float | None) -> list[str]:
-    """Failed checks of shape ``name`` (empty: the shape meets its targets), as readable strings."""
+def check(name: str, m: dict, neutral: dict, pair_asym: float | None, rest: dict | None = None) -> list[str]:
+    """Failed checks of shape ``name`` (empty: the shape meets its targets), as readable strings; ``rest``:
+    the figures of the rest mesh as modelled (checks marked ``REST``; without it they count from 0, a head
+    modelled with its lips together and its teeth hidden)."""
     failed = []
     for key, lo, hi, rel in TARGETS.get(name, []):
-        value = m[key] - neutral[key] if rel else m[key]
+        if rel == REST:
+            value = m[key]
+            hi = hi if rest is None else max(hi, rest[key] + REST_STEP)
+        else:
+            value = m[key] - neutral[key] if rel else m[key]
         if not lo <= value <= hi:
             bound = f">={lo:g}" if value < lo else f"<={hi:g}"
-            failed.append(f"{'d' if rel else ''}{key}={value:.1f} (want {bound})")
+            failed.append(f"{'d' if rel is True else ''}{key}={value:.1f} (want {bound})")
     if m["inverted"] > 0:
         failed.append(f"inverted={m['inverted']:.0f}")
     if m["lip_in_teeth"] > 0:
@@ -146,6 +159,8 @@ def audit_shapes(rig, expressions: dict[str, dict[str, float]], names=None, prog
     """Settle and measure ``names`` (default: every expression with targets) on ``rig``; returns
     ``{"neutral": figures, "rows": {name: (figures, failed checks)}}``."""
     probe = Probe(rig)
+    rig.reset()                        # the rest mesh with the jaw, eyes and tongue at rest
+    modelled = {k: v for k, v in measure(probe, probe.rest, probe.rest).items() if k != "_disp"}
     base = settle_expression(rig, {})
     neutral = measure(probe, base, probe.rest)
     figures = {"__neutral__": neutral}
@@ -161,8 +176,8 @@ def audit_shapes(rig, expressions: dict[str, dict[str, float]], names=None, prog
         pair = None
         if other and other in figures:
             pair = pair_asymmetry(probe, figures[name]["_disp"], figures[other]["_disp"])
-        rows[name] = (figures[name], check(name, figures[name], neutral, pair))
-    neutral_failed = check("viseme_sil", measure(probe, base, base), neutral, None)
-    return {"neutral": neutral, "rows": rows, "neutral_failed": neutral_failed, "probe": probe,
+        rows[name] = (figures[name], check(name, figures[name], neutral, pair, modelled))
+    neutral_failed = check("viseme_sil", measure(probe, base, base), neutral, None, modelled)
+    return {"neutral": neutral, "rest": modelled, "rows": rows, "neutral_failed": neutral_failed, "probe": probe,
             "blink": np.array([figures.get(n, neutral)[f"gap_{s}"] for n, s in
                                (("eyeBlinkLeft", "L"), ("eyeBlinkRight", "R"))])}

@@ -49,7 +49,7 @@ from .network import SkinMaterial, under_ledge
 from .persistence import read_saved_rig, restore_state, saved_state
 from .rig import FaceRig
 from .skull_fit import similarity_transform
-from .template import HeadTemplate, TemplateInputs, build_template, default_inputs
+from .template import CLOSED_LIP_COVER, HeadTemplate, TemplateInputs, build_template, default_inputs
 from .transfer import CARRIERS, MeshTransfer, transfer_to_mesh
 
 __all__ = ["FittedFaceRig", "FittedHead", "build_fitted_rig", "fit_head", "check_mesh", "MAX_VERTICES"]
@@ -57,6 +57,7 @@ __all__ = ["FittedFaceRig", "FittedHead", "build_fitted_rig", "fit_head", "check
 MAX_VERTICES = 500_000
 SYMMETRY_SNAP = 0.0003     # m in head space: landmarks this close to mirror-symmetric are made exactly so
 LANDMARK_COUNT = 468
+INCISAL_SETTLED = 0.0002   # m: an upper incisal edge this near its place on the mesh's own lips is left there
 
 
 def check_mesh(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
@@ -194,10 +195,15 @@ def _fit_head(vertices, faces, landmarks, *, seed: int, progress, resolution: st
     head_vertices = _transform(to_head, vertices)
     head_landmarks = _symmetric_within(_transform(to_head, landmarks), SYMMETRY_SNAP)
     # -- 3. template on the registered canonical face -------------------------------------------------------
-    source = build_template(resolution, replace(inputs, canonical_vertices=head_landmarks, closed_lips=False))
+    registered = replace(inputs, canonical_vertices=head_landmarks, closed_lips=False)
+    source = build_template(resolution, registered)
     # -- 4. transfer onto the artist's mesh ------------------------------------------------------------------
     report(0.8, "transferring the rig onto the mesh")
     transfer = transfer_to_mesh(source, head_vertices, proper, head_landmarks)
+    height = incisal_height(transfer, head_vertices)
+    if height is not None and abs(height - _incisal_edge(source)) > INCISAL_SETTLED:
+        source = build_template(resolution, replace(registered, incisal_height=height))
+        transfer = transfer_to_mesh(source, head_vertices, proper, head_landmarks)
     warnings += transfer.warnings
     report(0.9, "building the spring network")
     template, network_nodes, passive = network_template(source, transfer, head_vertices, proper, head_landmarks)
@@ -206,6 +212,29 @@ def _fit_head(vertices, faces, landmarks, *, seed: int, progress, resolution: st
                       head_vertices, source, template, transfer, network_nodes, passive,
                       np.where(transfer.carrier[passive] >= 0, 0.0, transfer.jaw_weight[passive]),
                       transfer.carrier[passive].copy(), inputs, resolution, int(seed), warnings)
+
+
+def incisal_height(transfer: MeshTransfer, head_vertices: np.ndarray) -> float | None:
+    """Head-space height of the upper incisal edge on the artist's mesh (3.1.2 "Eyes, Teeth, Tongue": the
+    teeth are placed in the fitted head): ``CLOSED_LIP_COVER`` below the free edge of the mesh's own upper lip
+    at the midline (the margin that meets the lower lip, :func:`.transfer._lip_margins`), as on the default
+    head, whose closed lips cover the edge by as much. The registered landmarks' stomion, from which the
+    template places the teeth, is not the mesh's: on heads modelled with their lips together it lay 1-5 mm
+    off the line where the lips meet, which hid the upper teeth behind the upper lip in /f v/ and /a/, or
+    showed them through closed lips. None when the mesh has no upper lip margin across the midline."""
+    margin = np.asarray(transfer.lip_margins.get("lips_inner_upper", ()), np.int64)
+    if len(margin) < 2:
+        return None
+    x, z = head_vertices[margin, 0], head_vertices[margin, 2]
+    if not x.min() < 0.0 < x.max():
+        return None
+    order = np.argsort(x, kind="stable")
+    return float(np.interp(0.0, x[order], z[order])) - CLOSED_LIP_COVER
+
+
+def _incisal_edge(template: HeadTemplate) -> float:
+    """Height of the template's upper incisal edge (its labial arch starts 1 mm above it, organs.arch_surface)."""
+    return float(template.organs.arches["upper"][0][:, 2].min()) + 0.001
 
 
 def build_fitted_rig(vertices, faces, landmarks=None, *, seed: int = 0, progress=None,

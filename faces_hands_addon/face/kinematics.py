@@ -140,6 +140,7 @@ class LidRig:
     FOLLOW_UPPER, FOLLOW_LOWER = 0.7, 0.4
     RAISE = 0.16                    # rad the levator lifts the upper margin (~2 mm on the eyeball, AU5)
     SQUEEZE = 0.14                  # rad the orbicularis oculi lifts the lower margin (~1.5 mm, AU6/AU7)
+    OVERLAP = 0.03                  # rad the upper margin closes past the meeting line: closed means closed
 
     def __init__(self, centre: np.ndarray, nodes: np.ndarray, upper_margin: np.ndarray,
                  lower_margin: np.ndarray, falloff_upper: float = 0.009, falloff_lower: float = 0.006,
@@ -152,6 +153,9 @@ class LidRig:
         upper / lower lid (the skin's lid groups; the margin's inner strip by the canthi lies lower than
         its elevation test expects), 0 to decide by elevation."""
         self.centre = np.asarray(centre, np.float64)
+        #: rad past the meeting line the upper margin closes (a fitted head's coarse margins need more:
+        #: :func:`.mesh_template._closing_overlap`)
+        self.overlap = self.OVERLAP
         self.clear_radius = eyeball_radius + 0.0005
         self.eyeball_radius = eyeball_radius
         nodes = np.asarray(nodes, np.float64)
@@ -233,7 +237,7 @@ class LidRig:
                  + self.SQUEEZE * float(np.clip(squeeze, 0.0, 1.0)) * t)
         aperture = np.maximum(upper - lower, 0.0)
         meeting = lower + self.MEETING * aperture
-        upper_final = upper + close * (meeting - 0.03 * t - upper)   # a little overlap: closed means closed
+        upper_final = upper + close * (meeting - self.overlap * t - upper)   # closed means closed
         lower_final = lower + close * (meeting - lower)
         delta = np.where(self.is_upper[pick], upper_final - theta_u, lower_final - theta_l)
         return self.weight[pick] * delta
@@ -257,7 +261,7 @@ class LidRig:
                    self.surface[index].astype(np.float64), float(np.clip(close, 0.0, 1.0)),
                    np.radians(EYE_PITCH_DEG) * float(np.clip(pitch, -1.0, 1.0)), float(np.clip(lift, 0.0, 1.0)),
                    float(np.clip(squeeze, 0.0, 1.0)), self.FOLLOW_UPPER, self.FOLLOW_LOWER, self.RAISE, self.SQUEEZE,
-                   self.MEETING, self.clear_radius, self.eyeball_radius, CORNEA_DEG, CORNEA_BULGE, out)
+                   self.MEETING, self.overlap, self.clear_radius, self.eyeball_radius, CORNEA_DEG, CORNEA_BULGE, out)
             return out
         angle = self.rotations(close, pitch, lift, squeeze, index)
         d = lid_rest - self.centre

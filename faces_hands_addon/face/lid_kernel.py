@@ -16,7 +16,7 @@ __all__ = ["rotate_lid_nodes"]
 
 
 def rotate_lid_nodes(lid_rest, centre, theta_u, theta_l, open_share, weight, is_upper, surface, close, gaze, lift,
-                     squeeze, follow_upper, follow_lower, raise_rad, squeeze_rad, meeting, clear_radius,
+                     squeeze, follow_upper, follow_lower, raise_rad, squeeze_rad, meeting, overlap, clear_radius,
                      eyeball_radius, cornea_deg, cornea_bulge, out):  # pragma: no cover - compiled
     """Rotated positions (``out``, (n, 3)) of the lid nodes ``lid_rest`` (n, 3) for closure ``close``, gaze
     pitch angle ``gaze`` (rad), levator ``lift`` and orbicularis ``squeeze`` (all clipped by the caller);
@@ -29,7 +29,7 @@ def rotate_lid_nodes(lid_rest, centre, theta_u, theta_l, open_share, weight, is_
         aperture = max(upper - lower, 0.0)
         meet = lower + meeting * aperture
         if is_upper[k]:
-            delta = upper + close * (meet - 0.03 * t - upper) - theta_u[k]
+            delta = upper + close * (meet - overlap * t - upper) - theta_u[k]
         else:
             delta = lower + close * (meet - lower) - theta_l[k]
         angle = weight[k] * delta

@@ -13,7 +13,7 @@ from scipy.spatial import cKDTree
 from ..core import geometry
 from .attachment import signed_bone_distance, smoothing_operator
 from . import organs as organ_meshes
-from .kinematics import LidRig, cornea_bulge
+from .kinematics import LidRig, _elevation, cornea_bulge
 from .skin import GROUPS, SkinMesh
 from .template import HeadTemplate, OrganRecord, SkinRecord
 from .transfer import MeshTransfer
@@ -26,6 +26,8 @@ LINING_FACING, LINING_REACH = 0.1, 0.004   # cosine towards the eye centre; m be
 BROW_SPREAD_PASSES = 3                      # smoothing passes of the muscle field on the mesh (_spread_over_the_brows)
 BROW_SPREAD_FROM = (0.02, 0.035)            # m from the lips over which that smoothing fades in
 EYE_STEP, EYE_MAX_SHIFT = 0.0001, 0.006     # m: the eyeball moves back in these steps, at most this far
+LID_GAP_BORDER = 0.2                        # share of the eye's width at each end left out of the closing gap
+OVERLAP_PASSES, OVERLAP_DONE = 8, 1e-4      # _closing_overlap: at most this many passes; rad of gap left = closed
 
 
 def _bone_contact(bones, nodes: np.ndarray, node_bone: np.ndarray):
@@ -153,7 +155,39 @@ def _lid_rigs(source: HeadTemplate, transfer: MeshTransfer, nodes, landmarks, sk
         lids[side] = LidRig(skin.eye_centres[side], nodes, _densify(upper), _densify(lower),
                             eyeball_radius=source.organs.eye_radius, surface=skin.group("surface"),
                             setup_radius=LID_SETUP_RADIUS, fade=weight * open_eye)
+        if open_eye and all(f"eye_{side}_{lid}" in skin.contours for lid in ("upper", "lower")):
+            _closing_overlap(lids[side], nodes, *(np.asarray(skin.contours[f"eye_{side}_{lid}"])
+                                                  for lid in ("upper", "lower")))
     return lids
+
+
+def _closing_overlap(lid: LidRig, nodes: np.ndarray, upper: np.ndarray, lower: np.ndarray) -> float:
+    """How far past the meeting line (rad) the upper margin must close so that the closed margins leave no
+    gap (3.1.2: "eyes together with the animatable eyelids"; a blink closes the eye). Each margin node
+    rotates to the meeting line at its own x, but the margins are straight between their nodes: where one lid
+    has few nodes (a decimated mesh: 4-5 mm apart) its chord passes above the other lid's nodes by the
+    curvature of the meeting line between them (up to 2 mm by an eye's outer corner). The closed margins are
+    posed as the rig will pose them (node weights, canthus ties) and the largest gap between the two
+    polylines over the middle ``1 - 2 LID_GAP_BORDER`` of the eye is added to the overlap until none is left
+    (nodes held by a canthus close less than the overlap, so once may not do): measured on the head, not
+    chosen per head. ``lid.overlap`` is left at the result."""
+    overlap = LidRig.OVERLAP
+    for _ in range(OVERLAP_PASSES):
+        lid.overlap = overlap
+        closed = []
+        for ids in (upper, lower):
+            elevation = _elevation(nodes[ids], lid.centre) + lid.rotations(1.0, 0.0, nodes=ids)
+            order = np.argsort(nodes[ids, 0], kind="stable")
+            closed.append((nodes[ids, 0][order], elevation[order]))
+        lo = min(closed[0][0][0], closed[1][0][0])
+        hi = max(closed[0][0][-1], closed[1][0][-1])
+        xs = np.linspace(lo + LID_GAP_BORDER * (hi - lo), hi - LID_GAP_BORDER * (hi - lo), 49)
+        gap = float((np.interp(xs, *closed[0]) - np.interp(xs, *closed[1])).max())
+        if gap <= OVERLAP_DONE:
+            break
+        overlap += gap
+    lid.overlap = overlap
+    return overlap
 
 
 def _spread_over_the_brows(attachment, skin: SkinMesh, lip_distance: np.ndarray) -> None:

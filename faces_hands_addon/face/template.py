@@ -57,6 +57,7 @@ class TemplateInputs:
     landmarks_json: str
     muscles_json: str
     closed_lips: bool = False        # close the canonical face's lips for the skin and muscles (default head)
+    incisal_height: float | None = None  # head-space z of the upper incisal edge (a fitted head: its own lips)
 
 
 @dataclass
@@ -207,7 +208,8 @@ def build_template(resolution: str = "default", inputs: TemplateInputs | None = 
     muscle_matrix = attach_to_muscles(system, placed, skin, bone_part["node_bone"])
     _carry_lips(system, placed, skin)
     parts, lids, tongue_pivot, arches = _organs(skin, canonical, bones, skin.vertices,
-                                                closed=soft if inputs.closed_lips else None)
+                                                closed=soft if inputs.closed_lips else None,
+                                                incisal_height=inputs.incisal_height)
     _seat_teeth_in_arches(bones, arches)
     incisor = parts["teeth_lower"].vertices[parts["teeth_lower"].vertices[:, 1].argmin()]
     bones.jaw_glide = opening_glide(bones.tmj_pivot, bones.tmj_axis, incisor * np.array([0.0, 1.0, 1.0]))
@@ -291,7 +293,7 @@ def _mouth_axes(canonical: np.ndarray) -> np.ndarray:
 
 
 def _organs(skin: SkinMesh, canonical: np.ndarray, bones: BoneFit, nodes: np.ndarray,
-            closed: np.ndarray | None = None):
+            closed: np.ndarray | None = None, incisal_height: float | None = None):
     parts = {}
     lids = {}
     for side, centre in skin.eye_centres.items():
@@ -302,7 +304,8 @@ def _organs(skin: SkinMesh, canonical: np.ndarray, bones: BoneFit, nodes: np.nda
         lids[side] = LidRig(centre, nodes, upper, lower, eyeball_radius=EYEBALL_RADIUS,
                             surface=skin.group("surface"), side=is_up.astype(int) - is_low.astype(int))
     # teeth: upper incisal edge 7.5 mm behind the stomion, 1 mm above it (lips parted, as a fitted head's
-    # mesh has them), or CLOSED_LIP_COVER below it (lips closed at rest: the lower lip covers the edge);
+    # mesh has them), or CLOSED_LIP_COVER below it (lips closed at rest: the lower lip covers the edge),
+    # or at ``incisal_height`` when given (a fitted head: from its own lips, fitted.incisal_height);
     # arch from the mouth width
     stomion = 0.5 * (canonical[13] + canonical[14])
     mouth_width = np.linalg.norm(canonical[291] - canonical[61])
@@ -310,6 +313,8 @@ def _organs(skin: SkinMesh, canonical: np.ndarray, bones: BoneFit, nodes: np.nda
     incisal = stomion + np.array([0.0, 0.0075, 0.0010])
     if closed is not None:
         incisal = 0.5 * (closed[13] + closed[14]) + np.array([0.0, 0.0075, -CLOSED_LIP_COVER])
+    if incisal_height is not None:
+        incisal[2] = incisal_height
     lower_incisal = incisal + np.array([0.0, 0.0022, 0.0022])
     upper, lower = organs.teeth_meshes(incisal, 0.026 * scale, 0.040 * scale, lower_incisal, scale)
     parts["teeth_upper"], parts["teeth_lower"] = upper, lower

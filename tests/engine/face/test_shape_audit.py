@@ -4,7 +4,7 @@ front), the brows rise and fall as far as real brows (FACS AU1/AU2/AU4; targets 
 lids fold nowhere, and the audit's neutral measures what the template is (lids open, no folded triangle)."""
 import pytest
 
-from faces_hands_addon.face.audit_targets import TARGETS, audit_shapes
+from faces_hands_addon.face.audit_targets import TARGETS, audit_shapes, check
 from faces_hands_addon.face.expressions import load_expressions
 from faces_hands_addon.face.rig import build_default_rig
 
@@ -73,3 +73,23 @@ def test_mouth_shapes_meet_their_targets(mouth_report, name):
     the audit passes (each failed on the open-mouthed template)."""
     figures, failed = mouth_report["rows"][name]
     assert not failed, (name, failed)
+
+
+def test_silence_is_held_to_the_rest_the_head_was_modelled_with():
+    """viseme_sil (every muscle at 0: the face at rest) is checked against the rest mesh as modelled: a head
+    modelled with parted lips (6.5 mm apart, 3 mm of upper teeth shown) passes when silence keeps that, and
+    fails when the rig opens the lips or shows the teeth further (beyond the 0.5 mm sample step); a head
+    modelled with its lips together is held to the 1 mm / 0.5 mm limits as before."""
+    def figures(gap, upper, lower=0.0):
+        return {"lip_gap": gap, "upper_show": upper, "lower_show": lower, "inverted": 0.0, "lip_in_teeth": 0.0,
+                "move99": 0.0, "asym95": 0.0}
+    parted = figures(6.5, 3.0)
+    assert check("viseme_sil", figures(6.5, 3.0), parted, None, parted) == []
+    assert check("viseme_sil", figures(6.9, 3.5), parted, None, parted) == []
+    failed = check("viseme_sil", figures(7.2, 4.0), parted, None, parted)
+    assert [f.split("=")[0] for f in failed] == ["lip_gap", "upper_show"], failed
+    sealed = figures(0.2, 0.0)
+    assert check("viseme_sil", figures(1.0, 0.5), sealed, None, sealed) == []
+    failed = check("viseme_sil", figures(1.2, 1.0), sealed, None, sealed)
+    assert [f.split("=")[0] for f in failed] == ["lip_gap", "upper_show"], failed
+    assert len(check("viseme_sil", figures(6.5, 3.0), parted, None)) == 2      # without the rest: from 0

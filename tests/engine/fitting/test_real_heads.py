@@ -14,6 +14,7 @@ from faces_hands_addon.face.audit_targets import audit_shapes
 from faces_hands_addon.face.expressions import load_expressions
 from faces_hands_addon.face.fitted import build_fitted_rig, fit_head
 from faces_hands_addon.face.skin import LIP_OVERLAP
+from faces_hands_addon.face.template import CLOSED_LIP_COVER
 from faces_hands_addon.fitting import locate_landmarks
 from faces_hands_addon.fitting.template import NOSE_TIP, face_template
 
@@ -266,6 +267,23 @@ def test_fitted_lip_margins_are_where_the_closed_lips_meet(name):
     vertices, faces = _head(name)
     rig = build_fitted_rig(vertices, faces, seed=0)
     assert abs(rig.lip_gap()) < 0.0015, rig.lip_gap()
+
+
+def test_fitted_upper_incisors_sit_behind_the_meshs_own_lips():
+    """The template placed the upper incisal edge 1 mm above the registered landmarks' stomion, which on a
+    head modelled with its lips together is not where they meet: on MakeHuman neutral the edge lay above the
+    upper lip's free edge, and the upper lip hid the teeth in /a/ (viseme_aa: upper teeth 0.0 mm shown, want
+    >= 1). It now lies ``CLOSED_LIP_COVER`` below the free edge of the mesh's own upper lip at the midline (the
+    margin that meets the lower lip), as on the default head, and /a/ shows them."""
+    vertices, faces = _head("makehuman_neutral")
+    rig = build_fitted_rig(vertices, faces, seed=0)
+    head = rig.fitted
+    margin = head.transfer.lip_margins["lips_inner_upper"]
+    x, z = head.head_vertices[margin, 0], head.head_vertices[margin, 2]
+    lip = np.interp(0.0, np.sort(x), z[np.argsort(x)])
+    edge = head.template.organs.arches["upper"][0][:, 2].min() + 0.001
+    assert abs(lip - edge - CLOSED_LIP_COVER) < 0.0003, (lip - edge) * 1000
+    assert not _failed_targets("makehuman_neutral", ("viseme_aa",), rig)
 
 
 def test_fitted_upper_lip_margin_row_stays_with_the_upper_lip():
