@@ -290,11 +290,13 @@ class _Stage:
 
     def _solve_rows(self, matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
         """Bounded least squares for every row of ``rhs``: the compiled active-set loop (:func:`_box_normal`
-        / :func:`_box_qr`, warm-started frame to frame) where numba is loaded, :func:`bounded_nnls` for the frames it leaves
+        / :func:`_box_qr`, warm-started frame to frame) where numba is usable, :func:`bounded_nnls` for the frames it leaves
         and everywhere without numba (the reference)."""
         weights = np.zeros((len(rhs), matrix.shape[1]))
         solved = np.zeros(len(rhs), bool)
-        if kernel.loaded() and kernel.compiled(_sets_settled) is not None:         # numba is here
+        # numba here (not merely loaded by whatever ran before in this process): the compiled and the
+        # scipy solvers agree to rounding only, so the choice may not depend on the process's history
+        if kernel.available() and kernel.compiled(_sets_settled) is not None:
             low, high = self._sets
             hessian = np.ascontiguousarray(matrix.T @ matrix)
             targets = np.ascontiguousarray(rhs @ matrix)                  # A^T b of every frame

@@ -263,6 +263,11 @@ class LeapfrogIntegrator:
             self.started = False
         return substeps
 
+    def backend_kernel(self):
+        """The compiled kernel this integrator's next frame runs on (loading it now), or ``None`` for numpy:
+        what a caller asks before computing a frame's inputs with the compiled helpers."""
+        return self._kernel()
+
     def _kernel(self):
         """The fused numba kernel (:mod:`.kernel`) if this integrator may use it, else ``None``."""
         if self.backend == "numpy":
