@@ -37,9 +37,11 @@ from .pressure import CheekPressure
 from .network import FaceNetwork, SkinMaterial, build_network
 from .persistence import read_saved_rig, restore_state, saved_state
 from .template import HeadTemplate, build_template, default_inputs
+from .unfold import FoldMender
 
 __all__ = ["FaceRig", "build_default_rig", "WRINKLE_DRIVERS", "RESOLUTIONS"]
 
+LIP_CONTACT = 0.001      # m: an inner-lip margin node this near the other lip touches it (the mend holds it)
 GUARD_EVERY = 4          # the skull/eye guard runs after every 4th substep and after the last one
 _IDENTITY = np.eye(4)
 _IDENTITY.flags.writeable = False
@@ -81,6 +83,7 @@ class FaceRig:
         self.time = 0.0
         self.frame_substeps = 0
         self._lip_midline: tuple[int, int] | None = None
+        self._mender: FoldMender | None = None
 
     # -- controls --------------------------------------------------------------------------------
     def control_specs(self) -> dict[str, ControlSpec]:
@@ -267,8 +270,12 @@ class FaceRig:
     def _advance(self, dt: float) -> None:
         """Simulate one frame of ``dt`` seconds (guards slide with the jaw during the frame); the state only
         (:meth:`step_frame` also returns the positions, which :meth:`settle` needs only after its last frame)."""
-        anchor, mirror, driven = self._frame_targets()
         face = self.face
+        # the integrator's backend first: if it loads the compiled kernel, this frame's targets (lids,
+        # muscles, attachments) use the compiled helpers too, on the process's first frame as on any later
+        # one (they agree with numpy to rounding only: a first frame must not differ from a later one)
+        face.integrator.backend_kernel()
+        anchor, mirror, driven = self._frame_targets()
         bones = [_IDENTITY, self._jaw_now]
         for guard in (face.bone_guard, face.teeth_guard):
             guard.begin_frame()                        # planes slide with the jaw during the frame
@@ -304,7 +311,41 @@ class FaceRig:
             self._advance(dt)                  # the state only: the positions are built once, at the end
             if largest_move(x, previous) < tolerance * dt and frame >= 2:
                 break
+        self.mend_folds()
         return self.positions
+
+    def mend_folds(self) -> int:
+        """Mend the visible skin triangles the settle turned over (:mod:`.unfold`), in the simulation state;
+        returns the folds left. Pinned: the nodes a camera does not see, the lid margins, the driven ring,
+        and the inner-lip margin nodes that touch the other lip now (within ``LIP_CONTACT``), so the lips'
+        and lids' contact is what the simulation made it; a margin apart from the other lip may move."""
+        skin = self.template.skin
+        if self._mender is None:
+            hidden = skin.group("lip_inner") | skin.group("mouth_bag") | skin.group("lid_back")
+            pinned = hidden.copy()
+            for key in ("eye_L_upper", "eye_L_lower", "eye_R_upper", "eye_R_lower"):
+                if key in skin.contours:
+                    pinned[np.asarray(skin.contours[key])] = True
+            if skin.kinematic is not None:
+                pinned |= np.asarray(skin.kinematic, bool)
+            faces = np.asarray(skin.faces)
+            self._mender = FoldMender(self._rest, faces, ~pinned, ~np.any(hidden[faces], axis=1))
+        x = self.face.network.positions
+        positions = np.array(x.T, dtype=np.float64)
+        folds = self._mender.folded(positions)
+        if len(folds) == 0:
+            return 0
+        movable = self._mender.movable.copy()
+        margins = [np.asarray(skin.contours[k]) for k in ("lips_inner_upper", "lips_inner_lower")
+                   if k in skin.contours]
+        if len(margins) == 2:
+            for mine, other in (margins, margins[::-1]):
+                gap = np.min(np.linalg.norm(positions[mine][:, None] - positions[other][None], axis=2), axis=1)
+                movable[mine[gap < LIP_CONTACT]] = False
+        left = self._mender.mend(positions, movable)
+        if self._mender.mended:
+            x[...] = positions.T
+        return left
 
     def lip_gap(self) -> float:
         """The simulated lips' gap at the midline now (m, head space; negative when pressed together): the
