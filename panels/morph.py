@@ -74,7 +74,9 @@ class FH_PT_morph(SidebarPanel, bpy.types.Panel):
         row.operator("faces_hands.morph_add_detail", icon="TEXTURE").factor = settings.detail_factor
         row.prop(settings, "detail_factor", text="")
         layout.operator("faces_hands.morph_make_animatable", icon="ARMATURE_DATA")
-        layout.operator("faces_hands.morph_link_character", icon="OUTLINER_OB_ARMATURE")
+        row = layout.row(align=True)
+        row.operator("faces_hands.morph_link_character", icon="OUTLINER_OB_ARMATURE")
+        row.operator("faces_hands.morph_refit_character", icon="FILE_REFRESH")
 
 
 class FH_PT_morph_attributes(SidebarPanel, bpy.types.Panel):
