@@ -53,7 +53,6 @@ def morphed_body(rig, model, head: np.ndarray) -> np.ndarray:
 def refit_stages(rig, model, head: np.ndarray, seed: int = FACE_SEED):
     """Refit ``rig`` (a :class:`.rig.CharacterRig`) to the morphed ``head`` in stages: a generator yielding
     ``(fraction, message)`` and, last, the refitted rig (module docstring). ``rig`` itself is not changed."""
-    from .rig import CharacterRig
     yield 0.0, "placing the morphed head on the body"
     basis = _basis(rig)
     mesh = replace(rig.character.mesh, vertices=morphed_body(rig, model, head), brows=None)
@@ -63,9 +62,7 @@ def refit_stages(rig, model, head: np.ndarray, seed: int = FACE_SEED):
     yield 0.9, "placing the eyes under the refitted lids"
     mesh.vertices = placed_eyes(character, face)
     mesh.brows = brow_paint(mesh.vertices, face, ids)
-    hands = {side: rig._hands[side] for side in rig._hands}
-    new = CharacterRig(character, face, ids, hands, mesh.vertices, rig.hand_specs, rig.fits, basis)
-    yield new
+    yield rig.with_face(character, face, ids, mesh.vertices, basis)
 
 
 def refit_character_rig(rig, model, head: np.ndarray, progress=None, seed: int = FACE_SEED):

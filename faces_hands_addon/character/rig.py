@@ -173,6 +173,12 @@ class CharacterRig:
         copy.identity = self.identity
         return copy
 
+    def with_face(self, character: Character, face, head_ids: np.ndarray, rest_vertices: np.ndarray,
+                  basis: np.ndarray | None) -> "CharacterRig":
+        """The same hands (rigs, controls, fits) with another face rig on another rest (a refit)."""
+        return CharacterRig(character, face, head_ids, dict(self._hands), rest_vertices, self.hand_specs, self.fits,
+                            basis)
+
     # -- outputs ----------------------------------------------------------------------------------------
     @property
     def rest_positions(self) -> np.ndarray:

@@ -19,7 +19,7 @@ from ..adapters import controls
 from ..adapters.poses import SIM_KEY, SKIN
 from ..adapters.rig_store import get_rig, is_rig, rig_of, store_rig, to_local
 from ..bases.jobs import Job
-from ...names import MORPH_CHARACTER
+from ...names import MORPH_CHARACTER, MORPH_REFIT, MORPH_STATE
 from . import services
 
 __all__ = ["refit_objects", "RefitCharacterJob"]
@@ -66,7 +66,7 @@ class RefitCharacterJob(Job):
         head, body = refit_objects(obj)
         rig = get_rig(body, "character")
         face = services.face_of(head)
-        self.body_name, self.head_name = body.name, head.name
+        self.body_name, self.head_name, self.state = body.name, head.name, head.get(MORPH_STATE, "")
         self.expressions = target_expressions(_key_names(body), rig.control_specs()) if targets else {}
         self._stages = refit_stages(rig, face.model, np.array(face.shape, np.float64))
         self.rig, self.bake = None, None
@@ -99,6 +99,7 @@ class RefitCharacterJob(Job):
             raise UserError(f"the character '{self.body_name}' is gone; nothing was refitted")
         shapes = self.bake.shapes if self.bake is not None else []
         commit_refit(body, self.rig, shapes)
+        body[MORPH_REFIT] = self.state
         return (f"Refitted the face rig of '{body.name}' to '{self.head_name}': {len(self.rig.head_ids):,} head "
                 f"vertices, {len(shapes)} targets baked again")
 

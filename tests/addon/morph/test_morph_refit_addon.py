@@ -132,3 +132,6 @@ def test_refit_blinks_closed_and_presses_the_lips_on_the_morphed_head_and_keeps_
         for bag in strip.channelbags for c in bag.fcurves]
     artist_curves = [c for c in curves if c.data_path == 'key_blocks["Artist Key"].value']
     assert len(artist_curves) == 1 and len(artist_curves[0].keyframe_points) == 2
+    assert body["fh_morph_refit"] == head["fh_morph_state"]          # the panel knows the rig is fitted to it
+    assert bpy.ops.faces_hands.morph_set_attribute(name=MASC, part="shape", value=1.0) == {"FINISHED"}
+    assert body["fh_morph_refit"] != head["fh_morph_state"]          # another edit: a refit is due again
