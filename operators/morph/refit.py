@@ -17,6 +17,7 @@ import numpy as np
 from ...faces_hands_addon.core.errors import UserError
 from ..adapters import controls
 from ..adapters.poses import SIM_KEY, SKIN
+from ..adapters.shape_keys import FRAME_PREFIX
 from ..adapters.rig_store import get_rig, is_rig, rig_of, store_rig, to_local
 from ..bases.jobs import Job
 from ...names import MORPH_CHARACTER, MORPH_REFIT, MORPH_STATE
@@ -67,7 +68,11 @@ class RefitCharacterJob(Job):
         rig = get_rig(body, "character")
         face = services.face_of(head)
         self.body_name, self.head_name, self.state = body.name, head.name, head.get(MORPH_STATE, "")
-        self.expressions = target_expressions(_key_names(body), rig.control_specs()) if targets else {}
+        names = _key_names(body)
+        self.expressions = target_expressions(names, rig.control_specs()) if targets else {}
+        frames = sum(name.startswith(FRAME_PREFIX) for name in names)
+        self.notes = ((f"the per-frame cache ({frames} keys) was baked on the old head; bake the animation again",)
+                      if frames else ())
         self._stages = refit_stages(rig, face.model, np.array(face.shape, np.float64))
         self.rig, self.bake = None, None
 
@@ -78,7 +83,7 @@ class RefitCharacterJob(Job):
                 fraction, self.label = item
                 return FIT_SHARE * fraction
             self.rig = item
-            self.warnings = tuple(item.warnings)
+            self.warnings = tuple(item.warnings) + self.notes
             if not self.expressions:
                 return 1.0
             from ...faces_hands_addon.anim.bakes import ShapesBake
