@@ -253,6 +253,15 @@ def test_the_refitted_rig_blinks_closed_and_presses_its_lips_on_the_morphed_head
     rows = report["rows"]
     assert rows["eyeBlinkLeft"][0]["gap_L"] <= 0.5 and rows["eyeBlinkRight"][0]["gap_R"] <= 0.5
     assert rows["viseme_PP"][1] == [] and rows["viseme_PP"][0]["lip_gap"] <= 0.3
+    from faces_hands_addon.face.audit import visible_from_front
+    triangles = new.character.mesh.triangles
+    eye = new.character.mesh.parts["eye_L"]
+    lids = triangles[~np.isin(triangles, eye).any(axis=1)]
+    for name, hidden in (("eyeBlinkLeft", True), ("eyeBlinkRight", False)):     # the body's own eye, hidden
+        pose = new.settled({"ctrl": expressions[name]}).positions["skin"].astype(np.float64)
+        on_morph = new.morphed_rest + (pose - new.rest_positions)
+        shown = int(visible_from_front(on_morph[eye], on_morph, lids).sum())
+        assert (shown == 0) == hidden, (name, shown)
 
 
 def test_the_refitted_rigs_shapes_are_deltas_on_the_bodys_own_basis(rig, morphed, tmp_path):
