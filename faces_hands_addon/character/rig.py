@@ -50,6 +50,16 @@ IDLE_TURN = 1e-6        # a relaxed hand whose bones turn less than this per fra
 LayerValues = Mapping[str, Mapping[str, float]]
 
 
+class _Deferred:
+    """A hand rig made the first time it is used (a worker copy's hands: a face bake never builds them)."""
+
+    def __init__(self, make):
+        self.make = make
+
+
+_LAZY = (bytes, bytearray, _Deferred)
+
+
 def _subset(layer_values: LayerValues, names, rename=None) -> dict:
     """The layer values of the controls ``names`` (renamed by ``rename``: character name -> own name)."""
     rename = rename or {}
@@ -99,9 +109,12 @@ class CharacterRig:
         self._hand_last: dict[str, dict] = {}
 
     def hand(self, side: str):
-        """The hand rig of ``side`` ("L"/"R"), rebuilt from its saved bytes the first time it is needed."""
+        """The hand rig of ``side`` ("L"/"R"), rebuilt from its saved bytes (or, in a worker copy, copied) the
+        first time it is needed."""
         hand = self._hands[side]
-        if isinstance(hand, (bytes, bytearray)):
+        if isinstance(hand, _Deferred):
+            hand = self._hands[side] = hand.make()
+        elif isinstance(hand, (bytes, bytearray)):
             hand = self._hands[side] = load_rig_bytes(hand)
         return hand
 
@@ -116,7 +129,7 @@ class CharacterRig:
     def reset(self) -> None:
         self.face.reset()
         for side, hand in self._hands.items():
-            if not isinstance(hand, (bytes, bytearray)):
+            if not isinstance(hand, _LAZY):
                 hand.reset()
         self._hand_idle = {side: True for side in self._hands}
         self._hand_last = {}
@@ -166,7 +179,9 @@ class CharacterRig:
         return self._pose(face_pose, values, hand_turns)
 
     def worker_copy(self) -> "CharacterRig":
-        hands = {side: hand if isinstance(hand, (bytes, bytearray)) else hand.worker_copy()
+        """A copy at rest for another thread; its hands are copied only when its hand controls are used
+        (copying a hand rig rebuilds it: seconds, for shapes of the face that never move a hand)."""
+        hands = {side: hand if isinstance(hand, _LAZY) else _Deferred(hand.worker_copy)
                  for side, hand in self._hands.items()}
         copy = CharacterRig(self.character, self.face.worker_copy(), self.head_ids, hands, self._rest,
                             self.hand_specs, self.fits, self.basis)
@@ -243,7 +258,7 @@ class CharacterRig:
         if self.basis is not None:
             arrays["basis_vertices"] = self.basis
         for side, hand in self._hands.items():
-            data = hand if isinstance(hand, (bytes, bytearray)) else save_rig(hand)
+            data = hand if isinstance(hand, (bytes, bytearray)) else save_rig(self.hand(side))
             arrays[f"hand_rig_{side}"] = np.frombuffer(bytes(data), np.uint8)
         write_rig_archive(path, meta, arrays)
 
