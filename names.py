@@ -7,7 +7,7 @@ from __future__ import annotations
 
 __all__ = ["RIG_MARKER", "RIG_DATA", "RIG_KIND", "RIG_ID", "RIG_CONTROLS", "RIG_WARNINGS", "OUTPUT_TO_LOCAL",
            "PART_ROLE", "TAKE", "TAKE_STAMP", "TAKE_LAYERS", "MOUTH_CUES", "MORPH_MARKER", "MORPH_MODEL",
-           "MORPH_STATE", "MORPH_EXAMPLES", "MORPH_HISTORY", "MORPH_CHARACTER", "HAND_PHOTO", "PHOTO_POINT", "PHOTO_IMAGE",
+           "MORPH_STATE", "MORPH_EXAMPLES", "MORPH_HISTORY", "MORPH_CHARACTER", "MORPH_REFIT", "HAND_PHOTO", "PHOTO_POINT", "PHOTO_IMAGE",
            "PHOTO_IMAGE_SIZE", "PHOTO_RULER_MM", "PHOTO_HEAD", "PHOTO_LANDMARKS", "PHOTO_CAMERA", "CONTROL_PREFIX",
            "control_property", "layer_prefix"]
 
@@ -34,6 +34,7 @@ MORPH_STATE = "fh_morph_state"          # JSON of the edit state
 MORPH_EXAMPLES = "fh_morph_examples"    # JSON of the model's examples (for the example list)
 MORPH_HISTORY = "fh_morph_history"      # one edit a line
 MORPH_CHARACTER = "fh_morph_character"  # the character body whose head the face reshapes (its name)
+MORPH_REFIT = "fh_morph_refit"          # on that body: the morph state its face rig was last refitted to
 
 # -- a hand photo and its feature points
 HAND_PHOTO = "fh_hand_photo"

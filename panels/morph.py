@@ -9,7 +9,7 @@ import bpy
 
 from ..faces_hands_addon.morph.model import matching_examples
 from .base import ROOT, SidebarPanel
-from ..names import MORPH_EXAMPLES, MORPH_HISTORY, MORPH_MARKER, MORPH_STATE
+from ..names import MORPH_CHARACTER, MORPH_EXAMPLES, MORPH_HISTORY, MORPH_MARKER, MORPH_REFIT, MORPH_STATE
 
 THUMBNAILS = 12
 ABOUT = ("Default model: whole heads made from MakeHuman's CC0 target"
@@ -74,7 +74,12 @@ class FH_PT_morph(SidebarPanel, bpy.types.Panel):
         row.operator("faces_hands.morph_add_detail", icon="TEXTURE").factor = settings.detail_factor
         row.prop(settings, "detail_factor", text="")
         layout.operator("faces_hands.morph_make_animatable", icon="ARMATURE_DATA")
-        layout.operator("faces_hands.morph_link_character", icon="OUTLINER_OB_ARMATURE")
+        row = layout.row(align=True)
+        row.operator("faces_hands.morph_link_character", icon="OUTLINER_OB_ARMATURE")
+        row.operator("faces_hands.morph_refit_character", icon="FILE_REFRESH")
+        body = bpy.data.objects.get(obj.get(MORPH_CHARACTER, "") or "")
+        if body is not None and body.get(MORPH_REFIT, "") != obj.get(MORPH_STATE, ""):
+            layout.label(text=f"'{body.name}' has its face rig fitted to another head: Refit Face Rig", icon="INFO")
 
 
 class FH_PT_morph_attributes(SidebarPanel, bpy.types.Panel):

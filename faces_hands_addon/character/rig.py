@@ -15,9 +15,15 @@ treat the whole person as one.
   hand (:mod:`.hands`), pose the armature's wrist and finger bones. Its controls are the hand rig's
   muscles with the side's suffix (``flexor_digitorum_superficialis_index_L``).
 
+* **Refitted to a morphed head** (3.2 -> 3.1.2: a new head from the morphable model is fitted again, as any
+  new head is): the rig's rest is the morphed body while the Blender body keeps its own shape as its basis
+  (the morph is a shape key on top of it). With a ``basis``, every output is the basis plus the simulated
+  displacement from the morphed rest, so the rig's shapes are deltas that add to the morph key: basis +
+  (morphed rest - basis) + (pose - morphed rest) = the pose on the morphed head.
+
 Outputs: ``Pose.positions["skin"]`` = every vertex of the body mesh (float32, the character's coordinates,
-rest space: the armature deforms it afterwards); ``Pose.transforms["bone:<name>"]`` = the pose bone's
-``matrix_basis`` (4x4) for the bones the rig turns.
+rest space: the armature deforms it afterwards; the basis plus the displacement when refitted);
+``Pose.transforms["bone:<name>"]`` = the pose bone's ``matrix_basis`` (4x4) for the bones the rig turns.
 """
 from __future__ import annotations
 
@@ -44,6 +50,16 @@ IDLE_TURN = 1e-6        # a relaxed hand whose bones turn less than this per fra
 LayerValues = Mapping[str, Mapping[str, float]]
 
 
+class _Deferred:
+    """A hand rig made the first time it is used (a worker copy's hands: a face bake never builds them)."""
+
+    def __init__(self, make):
+        self.make = make
+
+
+_LAZY = (bytes, bytearray, _Deferred)
+
+
 def _subset(layer_values: LayerValues, names, rename=None) -> dict:
     """The layer values of the controls ``names`` (renamed by ``rename``: character name -> own name)."""
     rename = rename or {}
@@ -54,17 +70,22 @@ def _subset(layer_values: LayerValues, names, rename=None) -> dict:
 class CharacterRig:
     """The whole person as one rig (module docstring). ``hands`` maps a side ("L"/"R") to its hand rig, or to
     that rig's saved bytes: a hand is rebuilt only when its controls are used (speech never needs one), its
-    controls and its fit into the character's hand are known without it (``hand_specs``, ``fits``)."""
+    controls and its fit into the character's hand are known without it (``hand_specs``, ``fits``). ``basis``:
+    the body's own vertices when the rig was refitted to a morphed rest (module docstring), else None."""
 
     kind = "character"
 
     def __init__(self, character: Character, face, head_ids: np.ndarray, hands: dict | None = None,
-                 rest_vertices: np.ndarray | None = None, hand_specs: dict | None = None, fits: dict | None = None):
+                 rest_vertices: np.ndarray | None = None, hand_specs: dict | None = None, fits: dict | None = None,
+                 basis: np.ndarray | None = None):
         self.character = character
         self.face = face
         self.head_ids = np.asarray(head_ids, np.int64)
         self._hands = dict(hands or {})
         self._rest = np.asarray(character.mesh.vertices if rest_vertices is None else rest_vertices, np.float64)
+        self.basis = None if basis is None else np.asarray(basis, np.float64)
+        if self.basis is not None and self.basis.shape != self._rest.shape:
+            raise UserError("the character's basis and its morphed rest have different vertex counts")
         self.identity = ""
         self.warnings = list(getattr(face, "warnings", []))
         self.terms = bone_terms(character.skeleton)
@@ -88,9 +109,12 @@ class CharacterRig:
         self._hand_last: dict[str, dict] = {}
 
     def hand(self, side: str):
-        """The hand rig of ``side`` ("L"/"R"), rebuilt from its saved bytes the first time it is needed."""
+        """The hand rig of ``side`` ("L"/"R"), rebuilt from its saved bytes (or, in a worker copy, copied) the
+        first time it is needed."""
         hand = self._hands[side]
-        if isinstance(hand, (bytes, bytearray)):
+        if isinstance(hand, _Deferred):
+            hand = self._hands[side] = hand.make()
+        elif isinstance(hand, (bytes, bytearray)):
             hand = self._hands[side] = load_rig_bytes(hand)
         return hand
 
@@ -105,7 +129,7 @@ class CharacterRig:
     def reset(self) -> None:
         self.face.reset()
         for side, hand in self._hands.items():
-            if not isinstance(hand, (bytes, bytearray)):
+            if not isinstance(hand, _LAZY):
                 hand.reset()
         self._hand_idle = {side: True for side in self._hands}
         self._hand_last = {}
@@ -155,17 +179,31 @@ class CharacterRig:
         return self._pose(face_pose, values, hand_turns)
 
     def worker_copy(self) -> "CharacterRig":
-        hands = {side: hand if isinstance(hand, (bytes, bytearray)) else hand.worker_copy()
+        """A copy at rest for another thread; its hands are copied only when its hand controls are used
+        (copying a hand rig rebuilds it: seconds, for shapes of the face that never move a hand)."""
+        hands = {side: hand if isinstance(hand, _LAZY) else _Deferred(hand.worker_copy)
                  for side, hand in self._hands.items()}
         copy = CharacterRig(self.character, self.face.worker_copy(), self.head_ids, hands, self._rest,
-                            self.hand_specs, self.fits)
+                            self.hand_specs, self.fits, self.basis)
         copy.identity = self.identity
         return copy
+
+    def with_face(self, character: Character, face, head_ids: np.ndarray, rest_vertices: np.ndarray,
+                  basis: np.ndarray | None) -> "CharacterRig":
+        """The same hands (rigs, controls, fits) with another face rig on another rest (a refit)."""
+        return CharacterRig(character, face, head_ids, dict(self._hands), rest_vertices, self.hand_specs, self.fits,
+                            basis)
 
     # -- outputs ----------------------------------------------------------------------------------------
     @property
     def rest_positions(self) -> np.ndarray:
-        return self._rest.astype(np.float32)
+        """The body's own vertices (its basis): the morphed rest's basis when refitted, else the rest."""
+        return (self._rest if self.basis is None else self.basis).astype(np.float32)
+
+    @property
+    def morphed_rest(self) -> np.ndarray:
+        """The rest the face rig was fitted to (float64; the basis when never refitted to a morph)."""
+        return self._rest
 
     @property
     def faces(self) -> np.ndarray:
@@ -201,6 +239,8 @@ class CharacterRig:
                     transforms[BONE_PREFIX + bone] = basis
             else:
                 transforms.update({BONE_PREFIX + bone: np.eye(4) for bone in fit.pairs.values()})
+        if self.basis is not None:
+            skin = self.basis + (skin - self._rest)
         return Pose({"skin": np.ascontiguousarray(skin, dtype=np.float32)}, transforms)
 
     # -- persistence ------------------------------------------------------------------------------------
@@ -215,15 +255,17 @@ class CharacterRig:
                 "warnings": self.warnings}
         arrays = {"face_rig": np.frombuffer(save_rig(self.face), np.uint8), "head_ids": self.head_ids,
                   "rest_vertices": self._rest}
+        if self.basis is not None:
+            arrays["basis_vertices"] = self.basis
         for side, hand in self._hands.items():
-            data = hand if isinstance(hand, (bytes, bytearray)) else save_rig(hand)
+            data = hand if isinstance(hand, (bytes, bytearray)) else save_rig(self.hand(side))
             arrays[f"hand_rig_{side}"] = np.frombuffer(bytes(data), np.uint8)
         write_rig_archive(path, meta, arrays)
 
     @classmethod
     def load(cls, path: str | Path) -> "CharacterRig":
         meta, arrays = read_rig_archive(path, CHARACTER_RIG_FORMAT, "character rig",
-                                        ("face_rig", "head_ids", "rest_vertices"), ("hand_rig_",))
+                                        ("face_rig", "head_ids", "rest_vertices"), ("hand_rig_", "basis_"))
         try:
             character = build_character(meta["skeleton"])
             face = load_rig_bytes(arrays["face_rig"].tobytes())
@@ -238,6 +280,9 @@ class CharacterRig:
         if arrays["rest_vertices"].shape != character.mesh.vertices.shape:
             raise UserError(f"{path}: the saved character does not match this extension's character; build it again")
         character.mesh.vertices = np.array(arrays["rest_vertices"], np.float64)
-        rig = cls(character, face, arrays["head_ids"], hands, arrays["rest_vertices"], specs, fits)
+        basis = arrays.get("basis_vertices")
+        if basis is not None and basis.shape != character.mesh.vertices.shape:
+            raise UserError(f"{path}: the saved character's basis does not match its rest; build it again")
+        rig = cls(character, face, arrays["head_ids"], hands, arrays["rest_vertices"], specs, fits, basis)
         rig.warnings = list(meta.get("warnings", rig.warnings))
         return rig

@@ -228,6 +228,24 @@ class FH_OT_morph_link_character(HardenedOperator, bpy.types.Operator):
         return {"FINISHED"}
 
 
+class FH_OT_morph_refit_character(JobOperator, bpy.types.Operator):
+    """Fit the character's face rig again to the head this morph head gave it, and bake its existing face
+    targets (ARKit, visemes, emotions, muscle basis) again on the new head; your own shape keys and animation
+    are kept. Esc cancels with nothing changed"""
+
+    bl_idname = "faces_hands.morph_refit_character"
+    bl_label = "Refit Face Rig"
+    bl_options = {"REGISTER", "UNDO"}
+
+    targets: bpy.props.BoolProperty(name="Bake Targets", default=True,
+                                    description="Bake the character's existing face targets again on the "
+                                                "refitted rig (off: refit only; the targets keep their old shapes)")
+
+    def make_job(self, context) -> Job:
+        from .refit import RefitCharacterJob
+        return RefitCharacterJob(context, context.active_object, self.targets)
+
+
 class FH_OT_morph_save_face(HardenedOperator, bpy.types.Operator):
     """Save the face (model, edit history, constraints, coefficients) as JSON"""
 
@@ -319,7 +337,7 @@ class FH_OT_morph_make_animatable(JobOperator, bpy.types.Operator):
         return MakeAnimatableJob(_face_object(context))
 
 
-CLASSES = [FH_OT_morph_link_character, FH_OT_morph_new_face, FH_OT_morph_set_attribute, FH_OT_morph_caricature, FH_OT_morph_show_segments,
+CLASSES = [FH_OT_morph_link_character, FH_OT_morph_refit_character, FH_OT_morph_new_face, FH_OT_morph_set_attribute, FH_OT_morph_caricature, FH_OT_morph_show_segments,
            FH_OT_morph_constrain, FH_OT_morph_release, FH_OT_morph_import_feature, FH_OT_morph_transform,
            FH_OT_morph_add_detail, FH_OT_morph_undo_edit, FH_OT_morph_save_face, FH_OT_morph_load_face,
            FH_OT_morph_render_thumbnails, FH_OT_morph_build_model, FH_OT_morph_make_animatable]

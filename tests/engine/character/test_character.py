@@ -219,3 +219,102 @@ def test_mismatched_rig_and_weight_files_are_refused(monkeypatch):
             skeleton.build_skeleton("mixamo", mesh)
     finally:
         mpfb2.read_weights.cache_clear()
+
+
+# -- the face rig refitted after a morph edit -----------------------------------------------------------------
+@pytest.fixture(scope="module")
+def morphed(rig):
+    """The rig refitted to the model's average head with masculine-feminine slid to +2 (a strong edit)."""
+    from faces_hands_addon.character.refit import refit_character_rig
+    from faces_hands_addon.morph.editing import EditFace
+    from faces_hands_addon.morph.heads import head_model
+    face = EditFace(head_model())
+    face.create("average")
+    face.set_attribute("masculine-feminine", 2.0)
+    return face, refit_character_rig(rig, face.model, face.shape)
+
+
+def test_the_refitted_rig_blinks_closed_and_presses_its_lips_on_the_morphed_head(rig, morphed):
+    """eyeBlink closes the lids (gap <= 0.5 mm) and viseme_PP shuts the lips, on the rig fitted to the morphed
+    head: its skin at rest is the model's head (moved more than 5 mm from the body's own), not the body's."""
+    from faces_hands_addon.character.refit import morphed_body
+    from faces_hands_addon.face.audit_targets import audit_shapes
+    from faces_hands_addon.face.expressions import load_expressions
+    face, new = morphed
+    head = morphed_body(rig, face.model, face.shape)
+    skin = head[new.head_ids]
+    eyes = np.concatenate([new.character.mesh.parts[f"eye_{s}"] for s in "LR"])
+    others = np.setdiff1d(np.arange(len(head)), eyes)
+    assert np.abs(new.morphed_rest[others] - head[others]).max() < 1e-9           # the model's head, eyes placed
+    assert np.linalg.norm(head - rig.rest_positions, axis=1).max() > 0.005          # and that is another head
+    np.testing.assert_allclose(new.face.rest_positions, skin, atol=1e-6)              # what the face rig was fitted to
+    expressions = {**load_expressions("arkit"), **load_expressions("visemes")}
+    report = audit_shapes(new.face, expressions, ("eyeBlinkLeft", "eyeBlinkRight", "viseme_PP"))
+    rows = report["rows"]
+    assert rows["eyeBlinkLeft"][0]["gap_L"] <= 0.5 and rows["eyeBlinkRight"][0]["gap_R"] <= 0.5
+    assert rows["viseme_PP"][1] == [] and rows["viseme_PP"][0]["lip_gap"] <= 0.3
+    from faces_hands_addon.face.audit import visible_from_front
+    triangles = new.character.mesh.triangles
+    eye = new.character.mesh.parts["eye_L"]
+    lids = triangles[~np.isin(triangles, eye).any(axis=1)]
+    for name, hidden in (("eyeBlinkLeft", True), ("eyeBlinkRight", False)):     # the body's own eye, hidden
+        pose = new.settled({"ctrl": expressions[name]}).positions["skin"].astype(np.float64)
+        on_morph = new.morphed_rest + (pose - new.rest_positions)
+        shown = int(visible_from_front(on_morph[eye], on_morph, lids).sum())
+        assert (shown == 0) == hidden, (name, shown)
+
+
+def test_the_refitted_rigs_shapes_are_deltas_on_the_bodys_own_basis(rig, morphed, tmp_path):
+    """Outputs = the body's basis + the displacement from the morphed rest (what adds to the morph key);
+    the hands' controls are kept; the refit survives save and load; ``rig`` itself is not changed."""
+    from faces_hands_addon.core.rig import load_rig
+    face, new = morphed
+    basis = rig.rest_positions
+    assert np.array_equal(new.rest_positions, basis) and rig.basis is None
+    values = {"ctrl": {"jaw_open": 1.0}}
+    pose = new.settled(values).positions["skin"].astype(np.float64)
+    inner = new.face.settled(values).positions["skin"]
+    displacement = np.zeros_like(pose)
+    displacement[new.head_ids] = inner - new.morphed_rest[new.head_ids]
+    moved = np.linalg.norm(displacement, axis=1) > 1e-4
+    np.testing.assert_allclose(pose[moved], basis[moved] + displacement[moved], atol=2e-6)
+    assert new.control_specs().keys() == rig.control_specs().keys()
+    path = tmp_path / "refitted.npz"
+    new.save(path)
+    back = load_rig(path)
+    assert np.array_equal(back.rest_positions, new.rest_positions)
+    assert back.settled(values).positions["skin"].tobytes() == new.settled(values).positions["skin"].tobytes()
+
+
+def test_a_bad_morphed_head_is_refused(rig):
+    from faces_hands_addon.character.refit import refit_character_rig, target_expressions
+    from faces_hands_addon.morph.heads import head_model
+    model = head_model()
+    head = model.mean_vertices().copy()
+    head[5, 1] = np.nan
+    with pytest.raises(UserError, match="non-finite"):
+        refit_character_rig(rig, model, head)
+    with pytest.raises(UserError, match="vertices"):
+        refit_character_rig(rig, model, head[:-3])
+    specs = rig.control_specs()
+    found = target_expressions(["Basis", "FH Morph Head", "jawOpen", "viseme_PP", "FH.jaw_open", "FH.frame_00001",
+                                "Artist Key"], specs)
+    assert set(found) == {"jawOpen", "viseme_PP", "FH.jaw_open"}
+    assert found["FH.jaw_open"] == {"jaw_open": specs["jaw_open"].full_value}
+
+
+def test_a_worker_copy_builds_its_hands_only_when_they_are_used():
+    """A face bake settles on worker copies: copying the hand rigs (a rebuild each) made a bake of 67 face
+    shapes on the character with hands 26 s instead of 2.3 s. The copy's face shapes are the original's, and
+    its hand is its own rig, built when asked for."""
+    from faces_hands_addon.character.fitting import build_character_rig
+    from faces_hands_addon.hand.rig import HandRig
+    rig = build_character_rig("game_engine", hands=True)
+    copy = rig.worker_copy()
+    assert not any(isinstance(hand, HandRig) for hand in copy._hands.values())      # nothing built yet
+    values = {"ctrl": {"jaw_open": 0.7}}
+    assert copy.settled(values).positions["skin"].tobytes() == rig.settled(values).positions["skin"].tobytes()
+    assert not any(isinstance(hand, HandRig) for hand in copy._hands.values())      # a face shape: still none
+    left = copy.hand("L")
+    assert isinstance(left, HandRig) and left is not rig.hand("L")
+    assert left.control_specs().keys() == rig.hand("L").control_specs().keys()
