@@ -26,7 +26,15 @@ from .geometric import muscle_grids
 from .skeleton import Skeleton, reoriented_frames
 from .skin import SkinMesh, fit_reference_skin
 
-__all__ = ["HandTemplate", "PresetTexts", "reference_template", "warped_template", "default_preset_texts"]
+__all__ = ["HandTemplate", "PresetTexts", "reference_template", "hand_template", "warped_template",
+           "default_preset_texts", "MESHES", "DEFAULT_MESH"]
+
+#: the standalone hand's skin: ``mpfb2`` the MPFB2 base mesh's hand (:mod:`.mpfb2_hand`), ``tube`` the
+#: reference skin of :mod:`.skin` (the WebXR hand shaped round the bones). The default stays ``tube`` until
+#: the MPFB2 hand meets what the tube's tests hold it to (finger contact side by side, the fist's thumb on
+#: the fingers, the hypothenar bulges); ``bench/hand.py`` measures both.
+MESHES = ("mpfb2", "tube")
+DEFAULT_MESH = "tube"
 
 
 @dataclass(frozen=True)
@@ -75,6 +83,21 @@ def reference_template(texts: PresetTexts | None = None) -> HandTemplate:
     """The reference hand for ``texts`` (default: the presets as the user folder / extension has them).
     Built once per process for each version of the presets and shared read-only."""
     return _reference(texts or default_preset_texts())
+
+
+@lru_cache(maxsize=4)
+def _on_mpfb2(texts: PresetTexts) -> HandTemplate:
+    from .mpfb2_hand import mpfb2_hand_template
+    return mpfb2_hand_template(_reference(texts))
+
+
+def hand_template(texts: PresetTexts | None = None, mesh: str = DEFAULT_MESH) -> HandTemplate:
+    """The hand for ``texts`` on the skin ``mesh`` (:data:`MESHES`); built once per process and shared."""
+    from ..core.errors import UserError
+    if mesh not in MESHES:
+        raise UserError(f"unknown hand mesh {mesh!r}; use one of {', '.join(MESHES)}")
+    texts = texts or default_preset_texts()
+    return _on_mpfb2(texts) if mesh == "mpfb2" else _reference(texts)
 
 
 def warped_template(template: HandTemplate, warp: Callable[[np.ndarray], np.ndarray]) -> HandTemplate:
