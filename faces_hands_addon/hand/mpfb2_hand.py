@@ -21,7 +21,11 @@ the reference hand's skeleton, joint limits and muscles fitted into it (thesis 6
    limits of Table 6.4 and the pseudo muscles of Table A.1 are kept.
 5. *Weights*: MPFB2's own skin weights for those bones (metacarpal1-4 -> the index..little metacarpals,
    finger1-* -> the thumb, fingerN-* -> the phalanges, wrist.R -> the wrist, the forearm bones -> the
-   forearm), renormalised to sum 1.
+   forearm), renormalised to sum 1, then widened over the mesh (:func:`widened`) so that each joint's blend
+   zone is as long as the finger is thick there: MPFB2 blends a finger joint over about one ring of
+   vertices, and the thesis' joint rotations (Table 6.4, up to 90-110 degrees) stretched the skin over the
+   knuckle to 2.7 times its rest length with those weights alone. Each vertex keeps its four largest
+   weights (renormalised), so the simulated hand is skinned exactly as every export plays it.
 6. *Clearance*: skin closer than :data:`.skin.CLEARANCE` to one of its own bones is pushed out (the warp
    puts the bones' centres on MPFB2's joints, not their surfaces inside MPFB2's fingers).
 
@@ -36,7 +40,8 @@ from scipy import sparse
 from scipy.sparse.csgraph import connected_components
 
 from ..character import mpfb2
-from ..core import refine
+from ..core import geometry, refine
+from ..core.skinning import limit_influences
 from ..physics import RBFWarp
 from .features import feature_points
 from .inertia import segment_masses
@@ -44,7 +49,7 @@ from .skeleton import TIP_NAMES, Skeleton
 from .skin import SkinMesh, push_out_of_bones
 from .template import HandTemplate, warped_template
 
-__all__ = ["mpfb2_hand_template", "hand_landmarks", "cut_hand", "SOURCE_SKELETON"]
+__all__ = ["mpfb2_hand_template", "hand_landmarks", "cut_hand", "mpfb2_weights", "widened", "SOURCE_SKELETON"]
 
 SOURCE_SKELETON = "default"       # MPFB2's skeleton with metacarpal bones (game_engine has none)
 
@@ -57,12 +62,12 @@ for _k, _finger in enumerate(("index", "middle", "ring", "pinky"), start=2):
 #: reference tip -> MPFB2 bone whose tail is that fingertip
 _TIPS = {tip: f"finger{k}-3" for k, tip in enumerate(TIP_NAMES, start=1)}
 #: MPFB2 bone -> reference bone for the skin weights (anything else in the cut: the forearm)
-_WEIGHT_BONES = {"wrist": "wrist", "finger1-1": "thumb-metacarpal", "finger1-2": "thumb-phalanx-proximal",
+_BONES_WEIGHTED = {"wrist": "wrist", "finger1-1": "thumb-metacarpal", "finger1-2": "thumb-phalanx-proximal",
                  "finger1-3": "thumb-phalanx-distal"}
 for _k, _finger in enumerate(("index", "middle", "ring", "pinky"), start=1):
-    _WEIGHT_BONES[f"metacarpal{_k}"] = f"{_finger}-finger-metacarpal"
+    _BONES_WEIGHTED[f"metacarpal{_k}"] = f"{_finger}-finger-metacarpal"
     for _j, _part in enumerate(("proximal", "intermediate", "distal"), start=1):
-        _WEIGHT_BONES[f"finger{_k + 1}-{_j}"] = f"{_finger}-finger-phalanx-{_part}"
+        _BONES_WEIGHTED[f"finger{_k + 1}-{_j}"] = f"{_finger}-finger-phalanx-{_part}"
 
 
 def hand_landmarks(skeleton: Skeleton, side: str = "R") -> tuple[np.ndarray, np.ndarray]:
@@ -94,7 +99,7 @@ def cut_hand(elbow: np.ndarray, wrist: np.ndarray, side: str = "R"):
     points = mpfb2.to_fh(mesh.vertices)
     table = mpfb2.read_weights(SOURCE_SKELETON)
     moved = np.zeros(len(points), bool)
-    for bone in _WEIGHT_BONES:
+    for bone in _BONES_WEIGHTED:
         vertex, value = table[f"{bone}.{side}"]
         moved[vertex[value > 0]] = True
     axis = (wrist - elbow) / np.linalg.norm(wrist - elbow)
@@ -109,8 +114,8 @@ def cut_hand(elbow: np.ndarray, wrist: np.ndarray, side: str = "R"):
     split = np.where((d02 <= d13)[:, None], [[0, 1, 2, 0, 2, 3]], [[0, 1, 3, 1, 2, 3]])
     tris = np.take_along_axis(quads, split, axis=1).reshape(-1, 3)
     tri_uvs = np.take_along_axis(quad_uvs, split, axis=1).reshape(-1, 3)
-    # the plane passes the torso too: keep the piece joined to the wrist ring's nearest vertex beyond it
-    count, label = connected_components(sparse.coo_matrix(
+    # one piece: the one holding the moved vertex nearest the wrist (a stray face elsewhere never counts)
+    _, label = connected_components(sparse.coo_matrix(
         (np.ones(tris.size), (tris.ravel(), tris[:, [1, 2, 0]].ravel())),
         shape=(len(points), len(points))), directed=False)
     inside = np.flatnonzero(beyond & sided & np.isin(np.arange(len(points)), tris))
@@ -121,7 +126,9 @@ def cut_hand(elbow: np.ndarray, wrist: np.ndarray, side: str = "R"):
     return ids, local.reshape(-1, 3), mesh.uvs[tri_uvs]
 
 
-def _weights(ids: np.ndarray, skeleton: Skeleton, side: str = "R") -> np.ndarray:
+def mpfb2_weights(ids: np.ndarray, skeleton: Skeleton, side: str = "R") -> np.ndarray:
+    """MPFB2's skin weights of the base-mesh vertices ``ids`` over ``skeleton``'s bones (module docstring,
+    step 5), rows summing to 1."""
     table = mpfb2.read_weights(SOURCE_SKELETON)
     weights = np.zeros((len(ids), len(skeleton.names)))
     position = np.full(mpfb2.VERTEX_COUNT, -1)
@@ -132,30 +139,59 @@ def _weights(ids: np.ndarray, skeleton: Skeleton, side: str = "R") -> np.ndarray
             continue
         rows = position[vertex]
         hit = rows >= 0
-        column = skeleton.index.get(_WEIGHT_BONES.get(bone[:-2], ""), forearm)
+        column = skeleton.index.get(_BONES_WEIGHTED.get(bone[:-2], ""), forearm)
         np.add.at(weights[:, column], rows[hit], value[hit])
     empty = weights.sum(axis=1) <= 0
     weights[empty, forearm] = 1.0
     return weights / weights.sum(axis=1, keepdims=True)
 
 
+def widened(weights: np.ndarray, vertices: np.ndarray, faces: np.ndarray,
+            skeleton: Skeleton) -> tuple[np.ndarray, int]:
+    """``weights`` diffused over the mesh (``W <- (W + mean of the neighbours' W) / 2``, ``k`` times) until the
+    blend zone's spread is the phalanges' skin radius ``r`` (median of :func:`.crease.bone_radii`): each step
+    spreads a weight by a variance of about ``h^2 / 4`` along the surface (``h`` the median edge length),
+    so ``k = round(4 r^2 / h^2)``. The forearm ring keeps its forearm weight (it joins the forearm). Returns
+    (weights, k)."""
+    from .crease import bone_radii
+    edges = geometry.unique_edges(np.asarray(faces, np.int64))
+    h = float(np.median(np.linalg.norm(vertices[edges[:, 0]] - vertices[edges[:, 1]], axis=1)))
+    radii = bone_radii(skeleton, vertices, weights)
+    r = float(np.median([radii[b] for b, n in enumerate(skeleton.names) if "phalanx" in n]))
+    steps = int(round(4.0 * r * r / (h * h)))
+    n = len(vertices)
+    adjacency = sparse.coo_matrix((np.ones(2 * len(edges)), (np.r_[edges[:, 0], edges[:, 1]],
+                                   np.r_[edges[:, 1], edges[:, 0]])), shape=(n, n)).tocsr()
+    mean = sparse.diags(1.0 / np.asarray(adjacency.sum(axis=1)).ravel()) @ adjacency
+    out = weights.copy()
+    ring = _rim(faces, n)
+    for _ in range(steps):
+        out = 0.5 * out + 0.5 * (mean @ out)
+        out[ring] = weights[ring]
+    return out / out.sum(axis=1, keepdims=True), steps
+
+
+def _rim(faces: np.ndarray, count: int) -> np.ndarray:
+    """(count,) bool: the vertices on the mesh's open rims."""
+    out = np.zeros(count, bool)
+    for loop in refine.boundary_loops(faces):
+        out[loop] = True
+    return out
+
+
 def mpfb2_hand_template(reference: HandTemplate) -> HandTemplate:
     """``reference`` (the thesis' reference hand) fitted into the MPFB2 hand (module docstring)."""
     source, target = hand_landmarks(reference.skeleton)
     rotation = _kabsch(target, source)
-    wrist = reference.skeleton.index["wrist"]
     w_ref, w_mpfb = source[list(_HEADS).index("wrist")], target[list(_HEADS).index("wrist")]
     place = lambda p: (p - w_mpfb) @ rotation.T + w_ref                      # noqa: E731
     warped = warped_template(reference, RBFWarp(source, place(target)))
     skeleton = warped.skeleton
-    assert np.allclose(skeleton.position[wrist], w_ref, atol=1e-9)
     ids, faces, corner_uvs = cut_hand(target[list(_HEADS).index("forearm")], w_mpfb)
     vertices = place(mpfb2.to_fh(mpfb2.base_mesh().vertices[ids]))
-    weights = _weights(ids, skeleton)
+    weights = limit_influences(widened(mpfb2_weights(ids, skeleton), vertices, faces, skeleton)[0])
     vertices = push_out_of_bones(vertices, faces, weights, skeleton)
-    boundary = np.zeros(len(vertices), bool)
-    for loop in refine.boundary_loops(faces):
-        boundary[loop] = True
+    boundary = _rim(faces, len(vertices))
     skin = SkinMesh(vertices, faces, corner_uvs, weights, boundary)
     return replace(warped, skin=skin, masses=segment_masses(skeleton, vertices, weights),
                    features=feature_points(skeleton, vertices))
