@@ -43,6 +43,7 @@ else:
 
 import numpy as np  # noqa: E402
 
+import faces_hands_addon.character  # noqa: E402,F401  (registers the MPFB2 hand mesh)
 from faces_hands_addon.anim.layers import BASE_LAYER  # noqa: E402
 from faces_hands_addon.hand import motion, skin_quality  # noqa: E402
 from faces_hands_addon.hand.rig import build_hand_rig  # noqa: E402

@@ -34,6 +34,7 @@ class BuildHandJob(Job):
 
     def step(self) -> float:
         from ...faces_hands_addon.hand.rig import build_hand_rig
+        from ...faces_hands_addon import character  # noqa: F401  (registers the MPFB2 hand mesh)
         from ...faces_hands_addon.hand.template import DEFAULT_MESH
         self.rig = build_hand_rig(self.side, self.photo, mesh=self.mesh or DEFAULT_MESH)
         return 1.0

@@ -1,4 +1,4 @@
-"""The standalone hand on MPFB2's hand mesh (hand/mpfb2_hand.py): the cut, the fitted skeleton and weights,
+"""The standalone hand on MPFB2's hand mesh (character/hand_mesh.py): the cut, the fitted skeleton and weights,
 and the skin goals of the hand issue per preset pose: every skin edge within 0.6-1.6 of its rest length, no
 skin triangle through another, the thenar bulge at full opponens contraction >= 2 mm. The limits are the
 goals, never the latest measurement; the poses that miss a goal today are marked ``xfail(strict=True)`` with
@@ -12,7 +12,8 @@ import pytest
 
 from faces_hands_addon.character import mpfb2
 from faces_hands_addon.core import refine
-from faces_hands_addon.hand import motion, mpfb2_hand, skin_quality
+from faces_hands_addon.character import hand_mesh as mpfb2_hand
+from faces_hands_addon.hand import motion, skin_quality
 from faces_hands_addon.hand.rig import build_hand_rig
 from faces_hands_addon.hand.template import hand_template
 

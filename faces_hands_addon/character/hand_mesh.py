@@ -1,6 +1,7 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """The standalone hand on the MPFB2 base mesh's hand (CC0; the character's hands, :mod:`..character.mpfb2`),
-the reference hand's skeleton, joint limits and muscles fitted into it (thesis 6.2.1 and 6.2.3).
+the reference hand's skeleton, joint limits and muscles fitted into it (thesis 6.2.1 and 6.2.3). The
+character package registers it with the hand as the skin ``mpfb2`` (:func:`..hand.register_hand_mesh`).
 
 1. *Cut*: the base mesh's right hand (``body`` faces only: knuckles, nail plates, creases, thenar and
    hypothenar eminences as MakeHuman modelled them) up to a wrist ring on the forearm: every face with a
@@ -17,7 +18,7 @@ the reference hand's skeleton, joint limits and muscles fitted into it (thesis 6
 4. *Warp*: the biharmonic RBF warp of 6.2.3 (``f(x) = sum_i c_i ||x - s_i|| + affine part``,
    :class:`..physics.RBFWarp`) takes the reference skeleton onto those landmarks and carries everything else
    the template holds (bone meshes, carpal-metacarpal joints, geometric-muscle grids) with it
-   (:func:`.template.warped_template`); the joint frames are re-oriented along the new bones, the DOFs and
+   (:func:`..hand.template.warped_template`); the joint frames are re-oriented along the new bones, the DOFs and
    limits of Table 6.4 and the pseudo muscles of Table A.1 are kept.
 5. *Weights*: MPFB2's own skin weights for those bones (metacarpal1-4 -> the index..little metacarpals,
    finger1-* -> the thumb, fingerN-* -> the phalanges, wrist.R -> the wrist, the forearm bones -> the
@@ -26,7 +27,7 @@ the reference hand's skeleton, joint limits and muscles fitted into it (thesis 6
    vertices, and the thesis' joint rotations (Table 6.4, up to 90-110 degrees) stretched the skin over the
    knuckle to 2.7 times its rest length with those weights alone. Each vertex keeps its four largest
    weights (renormalised), so the simulated hand is skinned exactly as every export plays it.
-6. *Clearance*: skin closer than :data:`.skin.CLEARANCE` to one of its own bones is pushed out (the warp
+6. *Clearance*: skin closer than :data:`..hand.skin.CLEARANCE` to one of its own bones is pushed out (the warp
    puts the bones' centres on MPFB2's joints, not their surfaces inside MPFB2's fingers).
 
 Masses and feature points (Table 6.5) are recomputed on the new skin.
@@ -39,15 +40,15 @@ import numpy as np
 from scipy import sparse
 from scipy.sparse.csgraph import connected_components
 
-from ..character import mpfb2
 from ..core import geometry, refine
 from ..core.skinning import limit_influences
+from ..hand.features import feature_points
+from ..hand.inertia import segment_masses
+from ..hand.skeleton import TIP_NAMES, Skeleton
+from ..hand.skin import SkinMesh, push_out_of_bones
+from ..hand.template import HandTemplate, warped_template
 from ..physics import RBFWarp
-from .features import feature_points
-from .inertia import segment_masses
-from .skeleton import TIP_NAMES, Skeleton
-from .skin import SkinMesh, push_out_of_bones
-from .template import HandTemplate, warped_template
+from . import mpfb2
 
 __all__ = ["mpfb2_hand_template", "hand_landmarks", "cut_hand", "mpfb2_weights", "widened", "SOURCE_SKELETON"]
 
@@ -149,11 +150,11 @@ def mpfb2_weights(ids: np.ndarray, skeleton: Skeleton, side: str = "R") -> np.nd
 def widened(weights: np.ndarray, vertices: np.ndarray, faces: np.ndarray,
             skeleton: Skeleton) -> tuple[np.ndarray, int]:
     """``weights`` diffused over the mesh (``W <- (W + mean of the neighbours' W) / 2``, ``k`` times) until the
-    blend zone's spread is the phalanges' skin radius ``r`` (median of :func:`.crease.bone_radii`): each step
+    blend zone's spread is the phalanges' skin radius ``r`` (median of :func:`..hand.crease.bone_radii`): each step
     spreads a weight by a variance of about ``h^2 / 4`` along the surface (``h`` the median edge length),
     so ``k = round(4 r^2 / h^2)``. The forearm ring keeps its forearm weight (it joins the forearm). Returns
     (weights, k)."""
-    from .crease import bone_radii
+    from ..hand.crease import bone_radii
     edges = geometry.unique_edges(np.asarray(faces, np.int64))
     h = float(np.median(np.linalg.norm(vertices[edges[:, 0]] - vertices[edges[:, 1]], axis=1)))
     radii = bone_radii(skeleton, vertices, weights)
