@@ -40,7 +40,7 @@ from .network import HandMaterial, build_hand_network
 from .photo import photo_warp
 from .pseudo import PseudoMuscles
 from .skeleton import mirror_matrix
-from .template import HandTemplate, PresetTexts, reference_template, warped_template
+from .template import DEFAULT_MESH, HandTemplate, PresetTexts, hand_template, warped_template
 
 __all__ = ["HandRig", "build_hand_rig", "SIDES", "control_specs_for"]
 
@@ -79,10 +79,10 @@ class HandRig:
     kind = "hand"
 
     def __init__(self, template: HandTemplate, side: str = "right", material: HandMaterial | None = None,
-                 photo: dict | None = None):
+                 photo: dict | None = None, mesh: str = DEFAULT_MESH):
         if side not in SIDES:
             raise UserError(f"hand side must be 'left' or 'right', not {side!r}")
-        self.template, self.side, self.photo = template, side, photo
+        self.template, self.side, self.photo, self.mesh = template, side, photo, mesh
         sk = template.skeleton
         self.skeleton = sk
         self.specs = control_specs_for(template)
@@ -136,7 +136,7 @@ class HandRig:
     def worker_copy(self) -> "HandRig":
         """A rig that settles exactly as this one does (same template, side, material and photo) with a
         simulation state of its own, at rest: :mod:`..anim.baking` settles shapes on it from another thread."""
-        copy = HandRig(self.template, self.side, self.material, self.photo)
+        copy = HandRig(self.template, self.side, self.material, self.photo, self.mesh)
         copy.reset_state()
         copy.identity = self.identity
         return copy
@@ -350,7 +350,8 @@ class HandRig:
         """Write the rig (.npz, no pickles): presets, side, photo input, material, controls and state (the
         joints, the skin and the thumb's sticking hold)."""
         p = self.template.presets
-        meta = {"format": HAND_RIG_FORMAT, "side": self.side, "photo": self.photo, "material": self.material.to_dict(),
+        meta = {"format": HAND_RIG_FORMAT, "side": self.side, "photo": self.photo, "mesh": self.mesh,
+                "material": self.material.to_dict(),
                 "controls": {k: float(v) for k, v in self.controls.items()}, "time": self.time,
                 "started": self.hand.integrator.started,
                 "presets": {"joints": p.joints, "muscles": p.muscles, "geometric": p.geometric}}
@@ -364,7 +365,8 @@ class HandRig:
         meta, arrays = read_rig_archive(path, HAND_RIG_FORMAT, "hand rig", STATE_ARRAYS, ("thumb_held_",))
         try:
             texts = PresetTexts(**meta["presets"])
-            rig = build_hand_rig(meta["side"], meta.get("photo"), HandMaterial(**meta["material"]), texts)
+            rig = build_hand_rig(meta["side"], meta.get("photo"), HandMaterial(**meta["material"]), texts,
+                                 meta.get("mesh", "tube"))     # rigs saved before the MPFB2 hand: the tube
         except (KeyError, TypeError) as error:
             raise UserError(f"{path}: the saved hand rig is incomplete ({error})") from None
         if arrays["positions"].shape != rig.hand.network.positions.shape or \
@@ -385,12 +387,13 @@ class HandRig:
 
 
 def build_hand_rig(side: str = "right", photo: dict | None = None, material: HandMaterial | None = None,
-                   texts: PresetTexts | None = None) -> HandRig:
-    """The reference hand, or the hand of a photograph (``photo``: the parsed feature-point input of
-    :func:`.photo.read_photo_points`), as a rig of ``side``."""
-    template = reference_template(texts)
+                   texts: PresetTexts | None = None, mesh: str = DEFAULT_MESH) -> HandRig:
+    """The reference hand on the skin ``mesh`` (:data:`.template.MESHES`), or the
+    hand of a photograph (``photo``: the parsed feature-point input of :func:`.photo.read_photo_points`), as a
+    rig of ``side``."""
+    template = hand_template(texts, mesh)
     if photo is not None:
         template = warped_template(template, photo_warp(template.features, photo))
-    rig = HandRig(template, side, material, photo)
+    rig = HandRig(template, side, material, photo, mesh)
     rig.reset_state()
     return rig

@@ -38,7 +38,7 @@ from .skeleton import TIP_NAMES, Skeleton
 from .skin_end import round_forearm_end
 from .skin_shape import relax_folds, restore_web_sides, shape_skin, smooth_field, web_membrane
 
-__all__ = ["SkinMesh", "fit_reference_skin", "TARGET_NODES", "CLEARANCE"]
+__all__ = ["SkinMesh", "fit_reference_skin", "push_out_of_bones", "TARGET_NODES", "CLEARANCE"]
 
 TARGET_NODES = 1500
 CLEARANCE = 0.002          # metres of tissue at least between a bone and the skin
@@ -122,7 +122,7 @@ def _refine(vertices, faces, corner_uvs, weights, target_nodes: int):
     return matrix @ vertices, new_faces, uvs, np.asarray(matrix @ weights)
 
 
-def _push_out_of_bones(vertices: np.ndarray, faces: np.ndarray, weights: np.ndarray,
+def push_out_of_bones(vertices: np.ndarray, faces: np.ndarray, weights: np.ndarray,
                        skeleton: Skeleton) -> np.ndarray:
     """Move skin vertices that lie within ``CLEARANCE`` of (or inside) one of their own bones (skinning weight
     over 2 %; a neighbouring finger's bone must not push a finger's side into it) out along their normals; the
@@ -168,7 +168,7 @@ def fit_reference_skin(skeleton: Skeleton, target_nodes: int = TARGET_NODES) -> 
     weights /= weights.sum(axis=1, keepdims=True)
     vertices = web_membrane(shape_skin(vertices, faces, weights, skeleton), faces, weights, skeleton)
     on_fingers = np.isin(weights.argmax(axis=1), [b for b, n in enumerate(skeleton.names) if "phalanx" in n])
-    vertices = _push_out_of_bones(relax_folds(vertices, faces, on_fingers), faces, weights, skeleton)
+    vertices = push_out_of_bones(relax_folds(vertices, faces, on_fingers), faces, weights, skeleton)
     vertices = relax_folds(vertices, faces, on_fingers)          # the folds the push made on the webs
     vertices = restore_web_sides(vertices, weights, skeleton)      # what that relax took off the fingers
     boundary = np.zeros(len(vertices), bool)

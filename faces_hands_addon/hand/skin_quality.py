@@ -20,7 +20,7 @@ from scipy.spatial import cKDTree
 
 from ..core import geometry
 
-__all__ = ["edge_ratios", "intersecting_pairs", "self_intersections", "surface_gap", "patch_near"]
+__all__ = ["edge_ratios", "intersecting_pairs", "self_intersections", "surface_gap", "patch_near", "thenar_bulge"]
 
 _EPS = 1e-12            # rest edge length below which an edge has no ratio (units of the mesh)
 _PARALLEL = 1e-9        # |det| over |segment| |edge 1| |edge 2|: a segment this near the triangle's plane misses
@@ -97,3 +97,21 @@ def surface_gap(vertices: np.ndarray, patch_a: np.ndarray, patch_b: np.ndarray) 
     """The smallest distance between a vertex of ``patch_a`` and one of ``patch_b`` (same units)."""
     distances, _ = cKDTree(vertices[patch_b]).query(vertices[patch_a])
     return float(distances.min())
+
+
+THENAR = ("adductor_pollicis", "opponens_pollicis")     # the geometric muscles under the thenar eminence
+
+
+def thenar_bulge(rig, muscle: str = "opponens_pollicis", settle_time: float = 2.0) -> float:
+    """The thenar bulge (m) of a hand rig at full contraction of ``muscle`` (6.2.2, Fig. 6.18): the hand settles
+    from rest with ``muscle`` at 1; at the joint angles reached, the skin is settled with and without the
+    geometric muscles' bulge (:meth:`.rig.HandRig.bulge_lift`); the largest outward lift of a skin node whose
+    heaviest geometric-muscle footprint is one of :data:`THENAR`. The rig is left reset."""
+    rig.reset()
+    rig.set_controls({muscle: 1.0})
+    rig.relax(settle_time)
+    lift, _, _ = rig.bulge_lift(rig.joint_angles)
+    owner = rig.geometric.footprint_owner()
+    region = np.isin(owner, [rig.geometric.names.index(n) for n in THENAR])
+    rig.reset()
+    return float(lift[region].max())

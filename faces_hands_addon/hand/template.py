@@ -12,12 +12,15 @@ geometry, which is why "the animation parameters have to be adapted to the warpe
 """
 from __future__ import annotations
 
+import importlib
 from dataclasses import dataclass, replace
 from functools import lru_cache
 from typing import Callable
 
 import numpy as np
 
+from ..core.errors import UserError
+from . import HAND_MESHES
 from .features import feature_points
 from .inertia import segment_masses
 from .presets import MuscleSpec, geometric_specs, joints_preset, muscle_specs, preset_text
@@ -26,7 +29,15 @@ from .geometric import muscle_grids
 from .skeleton import Skeleton, reoriented_frames
 from .skin import SkinMesh, fit_reference_skin
 
-__all__ = ["HandTemplate", "PresetTexts", "reference_template", "warped_template", "default_preset_texts"]
+__all__ = ["HandTemplate", "PresetTexts", "reference_template", "hand_template", "warped_template",
+           "default_preset_texts", "MESHES", "DEFAULT_MESH"]
+
+#: the standalone hand's skin: ``mpfb2`` the MPFB2 base mesh's hand (``character/hand_mesh.py``), ``tube`` the
+#: reference skin of :mod:`.skin` (the WebXR hand shaped round the bones). The default stays ``tube`` until
+#: the MPFB2 hand meets what the tube's tests hold it to (finger contact side by side, the fist's thumb on
+#: the fingers, the hypothenar bulges); ``bench/hand.py`` measures both.
+MESHES = ("mpfb2", "tube")
+DEFAULT_MESH = "tube"
 
 
 @dataclass(frozen=True)
@@ -75,6 +86,25 @@ def reference_template(texts: PresetTexts | None = None) -> HandTemplate:
     """The reference hand for ``texts`` (default: the presets as the user folder / extension has them).
     Built once per process for each version of the presets and shared read-only."""
     return _reference(texts or default_preset_texts())
+
+
+@lru_cache(maxsize=4)
+def _on_mesh(texts: PresetTexts, mesh: str) -> HandTemplate:
+    module, _, function = HAND_MESHES[mesh].partition(":")
+    return getattr(importlib.import_module(module), function)(_reference(texts))
+
+
+def hand_template(texts: PresetTexts | None = None, mesh: str = DEFAULT_MESH) -> HandTemplate:
+    """The hand for ``texts`` on the skin ``mesh`` (:data:`MESHES`); built once per process and shared."""
+    if mesh not in MESHES:
+        raise UserError(f"unknown hand mesh {mesh!r}; use one of {', '.join(MESHES)}")
+    texts = texts or default_preset_texts()
+    if mesh == "tube":
+        return _reference(texts)
+    if mesh not in HAND_MESHES:
+        raise UserError(f"the hand mesh {mesh!r} comes with the character package; import "
+                        "faces_hands_addon.character first")
+    return _on_mesh(texts, mesh)
 
 
 def warped_template(template: HandTemplate, warp: Callable[[np.ndarray], np.ndarray]) -> HandTemplate:

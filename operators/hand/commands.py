@@ -8,6 +8,7 @@ import bpy
 
 from ...faces_hands_addon.core.errors import UserError
 from ...faces_hands_addon.hand import motion
+from ...faces_hands_addon.hand.template import DEFAULT_MESH, MESHES
 from ..adapters.blendfile import save_blend
 from ..adapters.outputs import atomic_output, check_output_path, written
 from ..adapters.rig_store import get_rig
@@ -30,6 +31,9 @@ class BuildHand:
         parser.add_argument("--hand-length-mm", type=float,
                             help="with --photo alone: the hand's length, wrist crease to middle finger tip, in mm "
                                  "(it stands for the ruler)")
+        parser.add_argument("--mesh", choices=MESHES, default=DEFAULT_MESH,
+                            help="the hand's skin: tube (the WebXR hand shaped round the bones; default) or mpfb2 "
+                                 "(MPFB2's hand, the character's)")
         parser.add_argument("--name", default="FH Hand", help="name of the rig object")
         parser.add_argument("--out", required=True, help="output .blend file")
 
@@ -53,7 +57,7 @@ class BuildHand:
                 raise UserError("the output must not overwrite an input")
             photo = services.read_photo(args.points)
             photo["image"] = str(Path(args.photo).resolve())
-        services.build_hand_object(progress, args.name, args.side, photo)
+        services.build_hand_object(progress, args.name, args.side, photo, args.mesh)
         save_blend(out)
         print(written([out]))
         return 0

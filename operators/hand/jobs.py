@@ -29,12 +29,14 @@ class BuildHandJob(Job):
 
     label = "Building hand rig"
 
-    def __init__(self, name: str, side: str = "right", photo: dict | None = None):
-        self.name, self.side, self.photo, self.rig = name, side, photo, None
+    def __init__(self, name: str, side: str = "right", photo: dict | None = None, mesh: str | None = None):
+        self.name, self.side, self.photo, self.mesh, self.rig = name, side, photo, mesh, None
 
     def step(self) -> float:
         from ...faces_hands_addon.hand.rig import build_hand_rig
-        self.rig = build_hand_rig(self.side, self.photo)
+        from ...faces_hands_addon import character  # noqa: F401  (registers the MPFB2 hand mesh)
+        from ...faces_hands_addon.hand.template import DEFAULT_MESH
+        self.rig = build_hand_rig(self.side, self.photo, mesh=self.mesh or DEFAULT_MESH)
         return 1.0
 
     def commit(self, context) -> str:

@@ -19,6 +19,8 @@ from .objects import push_hand_pose
 
 SIDE_ITEMS = [("right", "Right", "A right hand (the reference hand)"),
               ("left", "Left", "A left hand: the right one mirrored")]
+MESH_ITEMS = [("tube", "Shaped", "The WebXR hand shaped round the bones"),
+              ("mpfb2", "MPFB2", "MPFB2's hand (the character's), the skeleton fitted into it")]
 
 
 def _active_hand(context):
@@ -47,9 +49,10 @@ class FH_OT_build_hand_rig(JobOperator, bpy.types.Operator):
 
     name: bpy.props.StringProperty(name="Name", default="FH Hand", description="Name of the new rig object")
     side: bpy.props.EnumProperty(name="Side", items=SIDE_ITEMS, default="right", description="Which hand to build")
+    mesh: bpy.props.EnumProperty(name="Mesh", items=MESH_ITEMS, default="tube", description="The hand's skin")
 
     def make_job(self, context) -> Job:
-        return BuildHandJob(self.name, self.side)
+        return BuildHandJob(self.name, self.side, mesh=self.mesh)
 
 
 class FH_OT_build_hand_from_photo(JobOperator, bpy.types.Operator):

@@ -61,10 +61,12 @@ def detect_photo(photo_path: str, side: str, hand_length_mm: float) -> dict:
     return {**check_photo(doc, str(path)), "image": str(path.resolve())}
 
 
-def build_hand_object(progress=None, name: str = "FH Hand", side: str = "right", photo: dict | None = None):
-    """A new empty file holding a hand rig (the reference hand, or the hand of ``photo``); its rig object."""
+def build_hand_object(progress=None, name: str = "FH Hand", side: str = "right", photo: dict | None = None,
+                      mesh: str | None = None):
+    """A new empty file holding a hand rig (the reference hand on the skin ``mesh`` of
+    ``hand.template.MESHES``, or the hand of ``photo``); its rig object."""
     bpy.ops.wm.read_homefile(use_empty=True)
-    print(run_job(BuildHandJob(name, side, photo), bpy.context, progress))
+    print(run_job(BuildHandJob(name, side, photo, mesh), bpy.context, progress))
     return find_rig(bpy.data.objects, name, KIND)
 
 
