@@ -217,8 +217,8 @@ def _rest_closing_of_the_mesh(muscles, skin: SkinMesh, landmarks: np.ndarray, co
     so the oris pressed the lips into each other. Each point's closing is scaled by the mesh's opening
     over the landmarks' at its x (at most 1)."""
     names = ("lips_inner_upper", "lips_inner_lower")
-    if not np.any(muscles.rest_closing) or not all(k in skin.contours for k in names):
-        return
+    if not np.any(muscles.rest_closing) or not all(len(skin.contours.get(k, ())) for k in names):
+        return                             # no inner lip contour found on the mesh: the landmarks' closing
     x = muscles.rest[:, 0]
     said = _inner_lip_gap(landmarks, *(np.asarray(contours[k]) for k in names), x)
     real = _inner_lip_gap(skin.vertices, *(np.asarray(skin.contours[k]) for k in names), x)
