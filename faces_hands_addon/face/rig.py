@@ -37,7 +37,7 @@ from .pressure import CheekPressure
 from .network import FaceNetwork, SkinMaterial, build_network
 from .persistence import read_saved_rig, restore_state, saved_state
 from .template import HeadTemplate, build_template, default_inputs
-from .unfold import FoldMender
+from .unfold import FoldMender, touching
 
 __all__ = ["FaceRig", "build_default_rig", "WRINKLE_DRIVERS", "RESOLUTIONS"]
 
@@ -336,12 +336,8 @@ class FaceRig:
         if len(folds) == 0:
             return 0
         movable = self._mender.movable.copy()
-        margins = [np.asarray(skin.contours[k]) for k in ("lips_inner_upper", "lips_inner_lower")
-                   if k in skin.contours]
-        if len(margins) == 2:
-            for mine, other in (margins, margins[::-1]):
-                gap = np.min(np.linalg.norm(positions[mine][:, None] - positions[other][None], axis=2), axis=1)
-                movable[mine[gap < LIP_CONTACT]] = False
+        margins = [np.asarray(skin.contours.get(k, ()), np.int64) for k in ("lips_inner_upper", "lips_inner_lower")]
+        movable[touching(positions, *margins, LIP_CONTACT)] = False
         left = self._mender.mend(positions, movable)
         if self._mender.mended:
             x[...] = positions.T

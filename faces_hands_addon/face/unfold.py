@@ -26,14 +26,27 @@ import numpy as np
 from scipy import sparse
 from scipy.sparse.csgraph import connected_components
 from scipy.sparse.linalg import splu
+from scipy.spatial import cKDTree
 
 from ..core import geometry
 
-__all__ = ["FoldMender", "ROUNDS", "GROW"]
+__all__ = ["FoldMender", "touching", "ROUNDS", "GROW"]
 
 ROUNDS = 6      # solves at most; each grows the region round the folds that are left
 GROW = 2        # rings added round the remaining folds per round (the first region: their nodes + 1 ring)
 REGULAR = 1e-6  # diagonal added to the Laplacian (its diagonal is a node's edge count, 3-12)
+
+
+def touching(positions: np.ndarray, upper: np.ndarray, lower: np.ndarray, reach: float) -> np.ndarray:
+    """Nodes of the two margins ``upper`` and ``lower`` (node ids) within ``reach`` of the other margin
+    (the lips' contact, 3.1.3 closures); empty where a margin is (a mesh whose contour was not traced)."""
+    if len(upper) == 0 or len(lower) == 0:
+        return np.zeros(0, np.int64)
+    tree = cKDTree(positions[lower])
+    near_upper = upper[tree.query(positions[upper], distance_upper_bound=reach)[0] < reach]
+    tree = cKDTree(positions[upper])
+    near_lower = lower[tree.query(positions[lower], distance_upper_bound=reach)[0] < reach]
+    return np.concatenate([near_upper, near_lower])
 
 
 class FoldMender:

@@ -95,3 +95,11 @@ def test_the_face_rig_mends_a_fold_in_its_state_and_holds_the_lid_margins():
     after = np.array(rig.face.network.positions.T, np.float64)
     assert len(rig._mender.folded(after)) == 0
     np.testing.assert_array_equal(after[margins], before[margins])
+
+
+def test_touching_lip_margins_are_found_and_an_untraced_margin_is_no_error():
+    from faces_hands_addon.face.unfold import touching
+    points = np.array([[0, 0, 0], [0.002, 0, 0], [0, 0, -0.0005], [0.002, 0, -0.003]], float)
+    upper, lower = np.array([0, 1]), np.array([2, 3])
+    assert sorted(touching(points, upper, lower, 0.001).tolist()) == [0, 2]
+    assert len(touching(points, upper, np.array([], np.int64), 0.001)) == 0
