@@ -19,7 +19,9 @@ boundary point by a model of the brightness across the limb instead (:func:`.ima
 beside the camera shades one side of the limb more steeply than the other, which moves a half-way crossing
 inwards on that side and the circle's centre away from it (measured against the synthetic truth on the front
 pair of seeds 11 and 12: the two cameras' centre offsets across the baseline differed by 0.14 px with the
-crossing and by 0.05 px with the model). Two balls whose silhouettes merged (overlapping exposures) are split by taking the two best
+crossing and by 0.05 px with the model). The pipeline uses it for the centres the ball's markers are measured
+from; the positions keep the crossings (with the model there too, one synthetic knuckleball's front positions
+went wrong and its spin came out at 2382 rpm instead of 60). Two balls whose silhouettes merged (overlapping exposures) are split by taking the two best
 Hough circles of the region.
 """
 from __future__ import annotations

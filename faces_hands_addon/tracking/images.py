@@ -154,15 +154,16 @@ def radial_edges(value: np.ndarray, centre: np.ndarray, radius: float, level: fl
 
 def limb_profiles(samples: np.ndarray, steps: np.ndarray, start: np.ndarray, half_width: float = 4.0,
                   iterations: int = 12) -> np.ndarray:
-    """The limb along each ray (row of ``samples`` at radii ``steps``) from a model of its brightness profile:
-    a step from the ball's shading to the background ``b``, the shading taken as linear across the limb
-    (``L0`` at the limb, slope ``s`` inwards), blurred by a Gaussian of width ``sigma`` (the lens, the pixel and
-    the resampling):  ``b + L0 Phi(u) + s sigma (u Phi(u) + phi(u))`` with ``u = (e - r) / sigma``, fitted by
-    damped Gauss-Newton within ``half_width`` pixels of ``start`` (the half-way crossings; the window holds
-    the fitted blur, 0.7-1 px on the synthetic photos, several times over: at 2 px the fits were poorer). A lamp beside the
-    camera lights one side of the limb more steeply than the other; a crossing half way between the two
-    sides of the fall then lands inside the limb by an amount that grows with that slope, where the limb
-    ``e`` of the model does not depend on it. A ray whose fit fails or wanders keeps its crossing."""
+    """The limb along each ray (row of ``samples`` at radii ``steps``), the boundary points of 6.3.3's circle
+    fit, from a model of its brightness profile: a step from the ball's shading to the background ``b``, the
+    shading taken as linear across the limb (``L0`` at the limb, slope ``s`` inwards), blurred by a Gaussian
+    of width ``sigma`` (the lens, the pixel and the resampling):
+    ``b + L0 Phi(u) + s sigma (u Phi(u) + phi(u))`` with ``u = (e - r) / sigma``, fitted by damped
+    Gauss-Newton within ``half_width`` pixels of ``start`` (the half-way crossings; the synthetic photos'
+    limbs fall over about 2 px, and a 2 px window gave poorer fits than 4 or 5). A lamp beside the camera
+    lights one side of the limb more steeply than the other; a crossing half way between the two sides of
+    the fall then lands inside the limb by an amount that grows with that slope, where the limb ``e`` of the
+    model does not depend on it. A ray whose fit fails or wanders keeps its crossing."""
     spacing = float(steps[1] - steps[0])
     n = int(round(half_width / spacing))
     centre_index = np.clip(np.round((start - steps[0]) / spacing).astype(np.int64), n, len(steps) - n - 1)

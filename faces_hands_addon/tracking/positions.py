@@ -74,8 +74,7 @@ def ball_positions(cameras: tuple[Camera, Camera], images: tuple[np.ndarray, np.
         for n, (i, j) in enumerate(match.pairs):
             for c, k in enumerate((i, j)):
                 s = sils[c][k]
-                refined[c][n] = refine_centre(cameras[c], values[c], s, points[n], ball_radius, found[c].threshold,
-                                              profile=True)
+                refined[c][n] = refine_centre(cameras[c], values[c], s, points[n], ball_radius, found[c].threshold)
                 s.refined = refined[c][n]
         points = triangulate(list(cameras), refined)
     errors = np.nanmax(reprojection_errors(list(cameras), refined, points), axis=1)
