@@ -21,7 +21,9 @@ every pitch is tracked (the engine's pipeline, as ``track-pitch`` runs it). Agai
 
 Table 6.6's consistency columns (measured vs the optimal reference trajectory) are printed per pitch.
 The spin's ball centres (the silhouettes' circles) and its joint fit in the photos were chosen on seeds 21, 22,
-11 and 12 (offline, from their marker detections against the truth); seeds 31 and 32 were held out.
+11 and 12 (offline, from their marker detections against the truth); seeds 31 and 32 were held out. The limb's
+brightness model for those circles (``tracking.images.limb_profiles``) was chosen on seeds 11, 12, 21 and 22
+again, with seeds 41 and 42 rendered afterwards and held out.
 Usage: ``python bench/pitch.py [--seeds 11,12,13] [--pitches ...] [--work DIR]`` (renders are cached in
 DIR, default /tmp/fh-pitch-bench; the shared machine's timings are noisy).
 """

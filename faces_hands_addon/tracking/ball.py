@@ -14,7 +14,14 @@ Beyond the thesis: a silhouette that is a whole disc of the predicted size whose
 circle keeps its ellipse centre (a lamp beside the camera darkens the limb gradually, which moves a circle
 found on edges more than the ellipse); otherwise the boundary is found to sub-pixel precision along rays (the steepest fall nearest
 the predicted radius, placed half way down it), and the Hough winner is polished by a least-squares circle of
-the same radius through the boundary points that voted for it. Two balls whose silhouettes merged (overlapping exposures) are split by taking the two best
+the same radius through the boundary points that voted for it. On a whole disc ``profile=True`` places each
+boundary point by a model of the brightness across the limb instead (:func:`.images.limb_profiles`): a lamp
+beside the camera shades one side of the limb more steeply than the other, which moves a half-way crossing
+inwards on that side and the circle's centre away from it (measured against the synthetic truth on the front
+pair of seeds 11 and 12: the two cameras' centre offsets across the baseline differed by 0.14 px with the
+crossing and by 0.05 px with the model). The pipeline uses it for the centres the ball's markers are measured
+from; the positions keep the crossings (with the model there too, one synthetic knuckleball's front positions
+went wrong and its spin came out at 2382 rpm instead of 60). Two balls whose silhouettes merged (overlapping exposures) are split by taking the two best
 Hough circles of the region.
 """
 from __future__ import annotations
@@ -170,7 +177,7 @@ def _virtual_rotation(direction: np.ndarray) -> np.ndarray:
 
 
 def refine_centre(camera: Camera, image_value: np.ndarray, silhouette: Silhouette, approximate: np.ndarray,
-                  ball_radius: float, level: float, ellipse_fallback: bool = True) -> np.ndarray:
+                  ball_radius: float, level: float, ellipse_fallback: bool = True, profile: bool = False) -> np.ndarray:
     """The silhouette's centre (undistorted pixels) with the image radius predicted from the approximate 3D
     position ``approximate`` and the ball's real radius (6.3.3): sub-pixel boundary points, circular Hough with
     that known radius, polished (module docstring). The search runs in a virtual camera turned to look at the
@@ -178,7 +185,8 @@ def refine_centre(camera: Camera, image_value: np.ndarray, silhouette: Silhouett
     its centre (off the axis of the real camera it is an ellipse, elongated by 1 / cos of the angle).
     ``ellipse_fallback=False`` keeps the circle even for a whole disc with a soft limb: the ellipse of the
     thresholded disc leans towards the lit side, which the marker directions of 6.3.3 feel (they are taken
-    from the centre) more than the ball's position does."""
+    from the centre) more than the ball's position does. ``profile=True``: on a whole disc the boundary points
+    come from the limb's brightness model (module docstring) rather than the half-way crossing."""
     f = 0.5 * (camera.fx + camera.fy)
     ray = camera.R @ (approximate - camera.centre)
     distance = float(np.linalg.norm(ray))
@@ -186,7 +194,8 @@ def refine_centre(camera: Camera, image_value: np.ndarray, silhouette: Silhouett
     image_radius = predicted_radius(camera, approximate, ball_radius)
     whole = silhouette.axes[0] < 1.12 * silhouette.axes[1] and abs(silhouette.axes.mean() / image_radius - 1) < 0.12
     reach = 1.0 + max(silhouette.axes[0] / image_radius, 1.0)
-    edges = radial_edges(image_value, silhouette.centre, image_radius, level, count=180, reach=reach, nearest=True)
+    edges = radial_edges(image_value, silhouette.centre, image_radius, level, count=180, reach=reach, nearest=True,
+                         profile=profile and whole)
     if len(edges) < 8:
         return silhouette.centre
     turn = _virtual_rotation(ray)

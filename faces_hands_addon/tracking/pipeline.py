@@ -197,13 +197,14 @@ class PitchTracker:
 
     def _marker_centres(self, pair, found) -> np.ndarray:
         """The ball centres the marker directions are taken from: each silhouette's circle (never its ellipse,
-        :func:`.ball.refine_centre`), stereo, on a parabola in time. A circle that lands away from its ball's
+        :func:`.ball.refine_centre`, its outline from the limb's brightness model, so the strobe's one-sided
+        shading does not shift it), stereo, on a parabola in time. A circle that lands away from its ball's
         position by more than the others do (a neighbour's edge, a marker on the limb taken for the outline:
         beyond 3 robust deviations of the circles' shifts, at least 0.5 mm) is replaced by the position plus the
         typical shift."""
         values = [np.max(self.flat[cam.name][..., :3], axis=-1) for cam in pair]
         pixels = [np.array([refine_centre(cam, values[c], found.silhouettes[c][n], found.points[n], self.model.radius,
-                                          found.levels[c], ellipse_fallback=False)
+                                          found.levels[c], ellipse_fallback=False, profile=True)
                             for n in range(len(found.points))]).reshape(-1, 2) for c, cam in enumerate(pair)]
         points = triangulate(list(pair), pixels)
         shift = points - found.points

@@ -15,7 +15,9 @@ does not pull.
 
 The ball centres are fixed (the pipeline gives the silhouettes' circles, on a parabola in time). A centre off
 by 0.2 mm along the pair's baseline turns every marker direction, hence the axis, by about 0.4 degrees, and
-a stroboscope beside the cameras moves the silhouettes' centres by that much towards the lit side. Freeing
+a stroboscope beside the cameras moved the silhouettes' centres by about that much while their outlines were
+half-way crossings; the outline now comes from a model of the limb's brightness profile
+(:func:`.images.limb_profiles`), which measures the shading's slope instead of assuming none. Freeing
 one common shift along the baseline in this fit was measured on 16 synthetic pitches and not kept: it removed
 such a bias on some sets and added as much scatter on others (mean axis error 0.34 degrees with it and without).
 
