@@ -263,6 +263,13 @@ class LeapfrogIntegrator:
             self.started = False
         return substeps
 
+    def uses_kernel(self) -> bool:
+        """Will :meth:`advance` run the compiled kernel? Asked before a frame's inputs are computed, it loads
+        the kernel then, so the compiled helpers that follow ``kernel.loaded()`` (lids, muscles,
+        attachments) take the same path on a process's first frame as on every later one: a result does
+        not depend on what ran before it in the process."""
+        return self._kernel() is not None
+
     def _kernel(self):
         """The fused numba kernel (:mod:`.kernel`) if this integrator may use it, else ``None``."""
         if self.backend == "numpy":
