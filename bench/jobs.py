@@ -17,6 +17,14 @@ emotions and styles), through the CLI as a user runs it.
   ``scripts/blender_standin.py``), ``openjd_task_overhead_s``: a task's wall time beyond its rows' (Blender
   start, rig build), ``openjd_same_bytes``: its outputs equal the local run's.
 * ``peak_rss_mb_max``: the largest peak resident memory of a worker.
+* ``start_cpu_s_warm`` / ``start_cpu_s_off``: CPU seconds of the whole ``jobs`` command on one row and one
+  worker (Blender's start twice, the rig, the row) with the rig cache warm and off (``FH_NO_RIG_CACHE=1``):
+  their difference is what the cache saves each worker, in CPU time, which a neighbour's load does not
+  inflate as it does wall time.
+* ``rig_cache``: ``warm`` (default: the warm-up run keeps the built default character in the user's cache
+  folder, every later worker copies it instead of building), ``cold`` (the cached rigs removed before each
+  throughput run: its workers build and store it) or ``off`` (``FH_NO_RIG_CACHE=1``: built by every worker,
+  nothing stored).
 
 ``--rows N`` (default 200; ``--full``: 1,000); ``--openjd-rows``/``--kill-rows`` size those parts. Last line:
 ``RESULT key=value ...``.
@@ -139,11 +147,16 @@ def resume_at_scale(folder: Path, rows: int) -> dict:
             f"resume_{rows}_cpu_s": cpu_of(fh("jobs", path, "--out-dir", out, "--workers", 2))}
 
 
-def throughput(path: Path, folder: Path) -> dict:
+RIG_CACHE = USER_DIR / "extensions" / ".user" / "user_default" / "faces_hands" / "cache" / "rigs"
+
+
+def throughput(path: Path, folder: Path, rig_cache: str = "warm") -> dict:
     """1 worker, then 2 workers, on the same rows (each into its own folder); the per-row CPU fit."""
     figures, loads = {}, []
     for workers in (1, 2):
         out = folder / f"out{workers}"
+        if rig_cache == "cold":
+            shutil.rmtree(RIG_CACHE, ignore_errors=True)
         loads.append(os.getloadavg()[0])
         wall, result = timed(fh("jobs", path, "--out-dir", out, "--workers", workers))
         doc = report(out)
@@ -169,6 +182,24 @@ def throughput(path: Path, folder: Path) -> dict:
     figures["resume_skipped"] = report(folder / "out1")["counts"]["skipped"]
     same = all((folder / "out1" / r["out"]).read_bytes() == (folder / "out2" / r["out"]).read_bytes() for r in rows)
     figures["same_bytes_1w_2w"] = int(same)
+    return figures
+
+
+def start_cost(folder: Path) -> dict:
+    """CPU seconds of a one-row, one-worker run with the rig cache warm, then off (module docstring)."""
+    one = manifest(folder / "start.csv", 1, seed=11)
+    figures, before = {}, os.environ.get("FH_NO_RIG_CACHE")
+    for mode in ("warm", "off"):
+        os.environ["FH_NO_RIG_CACHE"] = "1" if mode == "off" else "0"
+        try:
+            figures[f"start_cpu_s_{mode}"] = cpu_of(fh("jobs", one, "--out-dir", folder / f"start_{mode}"))
+        finally:
+            os.environ.pop("FH_NO_RIG_CACHE", None)
+            if before is not None:
+                os.environ["FH_NO_RIG_CACHE"] = before
+    same = (folder / "start_warm" / "ch0" / "line00000.glb").read_bytes() == \
+        (folder / "start_off" / "ch0" / "line00000.glb").read_bytes()
+    figures["start_same_bytes"] = int(same)
     return figures
 
 
@@ -253,16 +284,21 @@ def main() -> None:
     parser.add_argument("--openjd-rows", type=int, default=12)
     parser.add_argument("--chunk", type=int, default=4)
     parser.add_argument("--resume-rows", type=int, default=1000)
-    parser.add_argument("--skip", default="", help="comma-separated parts to leave out: check,resume,throughput,"
-                                                   "kill,openjd")
+    parser.add_argument("--skip", default="", help="comma-separated parts to leave out: check,resume,start,"
+                                                   "throughput,kill,openjd")
     parser.add_argument("--rig", help="mask: every row on the face-only head (default: the default character)")
+    parser.add_argument("--rig-cache", choices=("warm", "cold", "off"), default="warm",
+                        help="the built default rig in the user's cache folder for the throughput runs "
+                             "(module docstring)")
     args = parser.parse_args()
+    if args.rig_cache == "off":
+        os.environ["FH_NO_RIG_CACHE"] = "1"
     if args.rig:
         RIG[:] = ["--rig", args.rig]
     rows = 1000 if args.full else args.rows
     skip = set(filter(None, args.skip.split(",")))
     folder = Path(tempfile.mkdtemp(prefix="fh-bench-jobs-"))
-    figures = {"rows": rows, "cores": os.cpu_count(), "rig": args.rig or "character"}
+    figures = {"rows": rows, "cores": os.cpu_count(), "rig": args.rig or "character", "rig_cache": args.rig_cache}
     try:
         warm = manifest(folder / "warm.csv", 1, seed=1)          # fill the shape cache once
         timed(fh("jobs", warm, "--out-dir", folder / "warm"))
@@ -270,9 +306,11 @@ def main() -> None:
             figures.update(check_100k(folder))
         if "resume" not in skip:
             figures.update(resume_at_scale(folder, args.resume_rows))
+        if "start" not in skip:
+            figures.update(start_cost(folder))
         path = manifest(folder / "lines.csv", rows)
         if "throughput" not in skip:
-            figures.update(throughput(path, folder))
+            figures.update(throughput(path, folder, args.rig_cache))
         if "kill" not in skip:
             figures.update(kill_one(manifest(folder / "kill.csv", args.kill_rows, seed=3), folder))
         if "openjd" not in skip:

@@ -231,6 +231,7 @@ class FaceRig:
         self._sync_controls()
         if self._targets is not None:
             return self._targets
+        self._frame_backend()
         t, rest = self.template, self._rest
         jaw = self.jaw_transform()
         target = t.attachment.carried(rest, jaw)
@@ -255,6 +256,16 @@ class FaceRig:
         self._jaw_now = jaw
         return target
 
+    def _frame_backend(self) -> None:
+        """Load the compiled kernel now if this rig's frame will load it (the integrator's choice, or a fitted
+        head's skin guard), before the lids, muscles and pulls that use it once ``kernel.loaded()``: a
+        process's first frame then computes as its later ones do, and a settled shape's bytes do not depend
+        on what ran before it in the process (3.1.2: one simulation, whichever loop computes it)."""
+        face = self.face
+        face.integrator.uses_kernel()
+        for guard in (face.bone_guard, face.teeth_guard):
+            guard.uses_kernel()
+
     def _frame_targets(self):
         """``(anchor, mirror, driven)`` (3, N) arrays the integrator moves the attachments and kinematic
         nodes to over a frame, for the current controls (cached with :meth:`attachment_targets`: a settle
@@ -271,10 +282,6 @@ class FaceRig:
         """Simulate one frame of ``dt`` seconds (guards slide with the jaw during the frame); the state only
         (:meth:`step_frame` also returns the positions, which :meth:`settle` needs only after its last frame)."""
         face = self.face
-        # the integrator's backend first: if it loads the compiled kernel, this frame's targets (lids,
-        # muscles, attachments) use the compiled helpers too, on the process's first frame as on any later
-        # one (they agree with numpy to rounding only: a first frame must not differ from a later one)
-        face.integrator.backend_kernel()
         anchor, mirror, driven = self._frame_targets()
         bones = [_IDENTITY, self._jaw_now]
         for guard in (face.bone_guard, face.teeth_guard):
@@ -299,6 +306,7 @@ class FaceRig:
         frames = max(3, int(np.ceil(max_time / dt)))
         x = self.face.network.positions
         previous = x.copy()
+        self._frame_backend()
         largest_move = kernel.compiled(kernel.largest_move) if kernel.loaded() else None
         if largest_move is None:
             moved = np.empty_like(x)

@@ -314,6 +314,14 @@ class BoneHalfSpaceGuard:
             self._last[:, active] = local[:, active]
         self._pose(active)
 
+    def uses_kernel(self) -> bool:
+        """Will :meth:`refresh` run compiled code? A guard that keeps its nodes' own bones runs the compiled
+        pre-test :meth:`_may_have_moved`, which loads the kernel; asked before a frame's inputs are computed,
+        this loads it then (``integrator.LeapfrogIntegrator.uses_kernel``)."""
+        if self._surfaces and self._own is not None and self._last is not None:
+            return kernel.compiled(anchor_kernel.any_moved_on_own_bone) is not None
+        return _compiled_guards(self.backend) is not None
+
     def _may_have_moved(self, positions: np.ndarray) -> bool:
         """The compiled pre-test of :meth:`_refresh_own_bone`: False only when no node can have moved
         ``_moved`` in its bone's frame (a 1e-6 relative margin covers the rounding by which its loop and

@@ -263,10 +263,12 @@ class LeapfrogIntegrator:
             self.started = False
         return substeps
 
-    def backend_kernel(self):
-        """The compiled kernel this integrator's next frame runs on (loading it now), or ``None`` for numpy:
-        what a caller asks before computing a frame's inputs with the compiled helpers."""
-        return self._kernel()
+    def uses_kernel(self) -> bool:
+        """Will :meth:`advance` run the compiled kernel? Asked before a frame's inputs are computed, it loads
+        the kernel then, so the compiled helpers that follow ``kernel.loaded()`` (lids, muscles,
+        attachments) take the same path on a process's first frame as on every later one: a result does
+        not depend on what ran before it in the process."""
+        return self._kernel() is not None
 
     def _kernel(self):
         """The fused numba kernel (:mod:`.kernel`) if this integrator may use it, else ``None``."""

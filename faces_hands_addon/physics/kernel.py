@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import math
 import os
+import threading
 import time
 from pathlib import Path
 
@@ -47,6 +48,7 @@ AUTO_MIN_NODE_FRAMES = 1_500_000
 BACKENDS = ("auto", "numba", "numpy")
 
 _HINTS = {"frames": 0, "interactive": False}
+_LOADING = threading.Lock()
 _COMPILED: dict = {}
 _STATE = {"folder": None, "kernel": None, "half_space": None, "sphere": None, "still_planes": None, "tried": False,
           "compile_s": None, "error": None}
@@ -353,7 +355,16 @@ def substep_kernel():
         return None
     if _STATE["tried"]:
         return _STATE["kernel"]
-    _STATE["tried"] = True
+    with _LOADING:                        # settles in other threads wait for the kernel, never take the numpy
+        if _STATE["tried"]:               # path while it loads (their results would depend on the timing)
+            return _STATE["kernel"]
+        compiled = _load()
+        _STATE["tried"] = True
+        return compiled
+
+
+def _load():
+    """Build or load the kernel (``substep_kernel`` holds the lock); None when the numpy path must run."""
     started = time.perf_counter()
     folder = _STATE["folder"]
     try:

@@ -11,17 +11,20 @@ from pathlib import Path
 
 import bpy
 
-from ...faces_hands_addon.anim.shape_cache import ShapeCache
+from ...faces_hands_addon.anim.shape_cache import ShapeCache, engine_fingerprint
 from ...faces_hands_addon.core import bytecode, presets
+from ...faces_hands_addon.core.file_cache import FileCache, cache_key, tree_fingerprint
 from ...faces_hands_addon.physics import kernel
 
 __all__ = ["user_preset_folder", "preset_folder", "preferences", "output_folder", "default_voice",
-           "configure_presets", "copy_presets", "shape_cache", "shape_cache_summary", "clear_shape_cache"]
+           "configure_presets", "copy_presets", "shape_cache", "shape_cache_summary", "clear_shape_cache",
+           "rig_cache", "rig_cache_key", "still_cache", "built_file_key"]
 
 _CACHE_FOLDER: list[Path | None] = [None]
 _PACKAGE: list[str | None] = [None]
 NO_CACHE_VARIABLE = "FH_NO_SHAPE_CACHE"     # set to 1 to simulate every target afresh (cold benchmarks)
 CACHE_DIR_VARIABLE = "FH_CACHE_DIR"         # a cache folder that outlives a farm session's user folder
+NO_RIG_CACHE_VARIABLE = "FH_NO_RIG_CACHE"   # 1: build the default rigs and stills afresh (cold benchmarks)
 
 
 def user_preset_folder(package: str) -> Path | None:
@@ -86,6 +89,41 @@ def configure_presets(package: str | None) -> None:
 def shape_cache() -> ShapeCache:
     """The cache of settled target shapes in the extension's user folder (``anim.shape_cache``)."""
     return ShapeCache(None if os.environ.get(NO_CACHE_VARIABLE) == "1" else _CACHE_FOLDER[0])
+
+
+def rig_cache() -> FileCache | None:
+    """The built default rigs (.blend files) beside the shape cache (``core.file_cache``), or None."""
+    return _file_cache("rigs")
+
+
+def still_cache() -> FileCache | None:
+    """The still GLBs of rigs (``take_export``) beside the shape cache, or None."""
+    return _file_cache("stills")
+
+
+def _file_cache(name: str) -> FileCache | None:
+    folder = _CACHE_FOLDER[0]
+    if folder is None or os.environ.get(NO_RIG_CACHE_VARIABLE) == "1":
+        return None
+    return FileCache(folder.parent / name)
+
+
+def rig_cache_key(what: str, fps: float, options: dict | None = None) -> tuple[str, dict]:
+    """(key, parts) of a built rig ``what`` at ``fps`` (:func:`built_file_key`)."""
+    return built_file_key(what, {"fps": float(fps), **(options or {})})
+
+
+def built_file_key(what: str, options: dict) -> tuple[str, dict]:
+    """(key, parts) of a file ``what`` made from ``options``: with them, everything else that decides its
+    bytes, the installed extension's files (code, presets, assets; the wheels by name and size), the
+    artist's preset overrides, Blender's version and build and numpy's version."""
+    import numpy
+    extension = Path(__file__).resolve().parents[2]
+    build = bpy.app.build_hash.decode("ascii", "replace") if isinstance(bpy.app.build_hash, bytes) else ""
+    parts = {"what": what, "options": dict(options), "extension": tree_fingerprint(str(extension)),
+             "engine": engine_fingerprint(), "blender": f"{bpy.app.version_string} {build}".strip(),
+             "numpy": numpy.__version__}
+    return cache_key(parts), parts
 
 
 def shape_cache_summary() -> tuple[int, int]:

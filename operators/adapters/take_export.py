@@ -2,12 +2,16 @@
 """A baked take written as GLB from the still rig and the take's own clip (``anim.glb_clip``), for rigs whose
 export Blender would sample frame by frame: a character (its head turns on the neck bones by drivers).
 
-The still GLB (skin, targets, armature, materials; no animation) comes from Blender's exporter; a jobs
-worker keeps it for the next line while its key holds: the rig file's identity (path, size, modification
-time), the targets written on the skin (names and the engine's data of each), the parts exported and the
-scene's unit. The clip comes from the engine's data: the weights bake's fitted weights and the take's head
-turn (``character.head.head_turns``). Anything this cannot write the same (a bone moved by a constraint, a
-driver on anything but the head chain's rotation, an object keyed to move) takes Blender's exporter.
+The still GLB (skin, targets, armature, materials; no animation) comes from Blender's exporter; a jobs worker
+keeps it for the next line while its key holds: the rig file's identity (path, size, modification time), the
+targets written on the skin (names and the engine's data of each), the parts exported and the scene's unit. It
+is also kept in the user's cache folder (``core.file_cache``, checked before use), keyed by the rig file's
+SHA-256 instead of its path, those same parts, the installed extension and Blender's version: the next worker
+on the same rig file and targets (the default character every worker copies from the cache) reads it instead
+of exporting it (Blender's exporter writes the same bytes in every process). The clip comes from the engine's
+data: the weights bake's fitted weights and the take's head turn (``character.head.head_turns``). Anything
+this cannot write the same (a bone moved by a constraint, a driver on anything but the head chain's rotation,
+an object keyed to move) takes Blender's exporter.
 """
 from __future__ import annotations
 
@@ -20,7 +24,7 @@ import bpy
 import numpy as np
 
 from ...faces_hands_addon.anim.glb_clip import Clip, add_clip, euler_quaternions
-from . import export_transforms as transforms
+from . import export_transforms as transforms, paths
 from .fcurves import existing_channelbag
 from .export import ExportOptions, export_objects, export_rig, exported_keys
 from .outputs import atomic_output, check_output_path
@@ -113,6 +117,34 @@ def _still_key(obj, roles, fit_key: str) -> str | None:
     return hashlib.sha256(blob.encode("utf-8")).hexdigest()
 
 
+def _kept_still(context, obj, roles, fit_key: str) -> bytes:
+    """The still GLB from the user's cache folder (module docstring), else exported and kept there."""
+    cache = paths.still_cache()
+    if cache is None:
+        return _still(context, obj, roles)
+    units = bpy.context.scene.unit_settings
+    key, parts = paths.built_file_key("still glb", {
+        "rig_file": _file_sha256(bpy.data.filepath), "object": obj.name, "roles": sorted(roles),
+        "targets": fit_key, "units": [units.system, float(units.scale_length)]})
+    still, problem = cache.read(key)
+    if still is not None:
+        return still
+    if problem:
+        print(f"warning: the cached still GLB ({cache.record_path(key)}) cannot be used: {problem}; "
+              f"exporting it again")
+    still = _still(context, obj, roles)
+    cache.store_bytes(key, still, parts)
+    return still
+
+
+def _file_sha256(path: str) -> str:
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
 def _still(context, obj, roles) -> bytes:
     folder = tempfile.mkdtemp(prefix="fh-still-")
     path = Path(folder) / "still.glb"
@@ -131,7 +163,7 @@ def write_take_glb(context, obj, out, roles, clip: Clip, targets_key: str) -> Pa
     key = _still_key(obj, roles, targets_key)
     still = _STILL.get(key) if key is not None else None
     if still is None:
-        still = _still(context, obj, roles)
+        still = _kept_still(context, obj, roles, targets_key) if key is not None else _still(context, obj, roles)
         _STILL.clear()
         if key is not None:
             _STILL[key] = still

@@ -1,6 +1,7 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Rows run in this Blender process: the rig built (or loaded) once, then every row baked from the same
-state, written into this process's staging folder and committed all or nothing
+state (the default character is copied from the user's cache folder when a run before kept it there,
+``speech.services.built_in_rig_file``: a worker's start is then Blender's start and the engine rig's load), written into this process's staging folder and committed all or nothing
 (:mod:`...faces_hands_addon.farm.resume`).
 
 Every row reopens the rig file (milliseconds), so no row sees what an earlier one left in the scene, and

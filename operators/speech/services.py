@@ -5,6 +5,7 @@ audio come from the same phone timing and both start at time 0 (thesis 3.1.4).""
 from __future__ import annotations
 
 import math
+import tempfile
 from pathlib import Path
 
 import bpy
@@ -14,6 +15,8 @@ from ...faces_hands_addon.core.errors import UserError
 from ..adapters.blendfile import open_blend
 from ..adapters.export import save_or_export
 from ..adapters.outputs import atomic_output
+from ..adapters.paths import rig_cache, rig_cache_key
+from ..adapters.render import quiet_stdout
 from ..adapters.rig_store import adopt_rig, get_rig, is_rig
 from ..adapters.targets import write_live_link
 from ..adapters.timing import scene_fps, set_scene_fps
@@ -22,7 +25,7 @@ from ..face import services as face, sheet
 from ..face.objects import EXPORT_ROLES
 from . import apply, head as head_motion
 
-__all__ = ["run_line", "shared_default_rig", "phoneme_cells", "rig_file", "MASK"]
+__all__ = ["run_line", "shared_default_rig", "built_in_rig_file", "phoneme_cells", "rig_file", "MASK"]
 
 
 MASK = "mask"         # ``--rig mask``: the face-only default head instead of the default character
@@ -33,25 +36,26 @@ def rig_file(rig: str | None) -> str | None:
     return None if rig in (None, MASK) else rig
 
 
-def _prepare_rig(rig_path: str | None, fps: float, progress, engine_rig=None):
-    """The rig of ``rig_path`` (a face rig or a character in a .blend), the face-only default head for
-    ``"mask"``, or a new default character, with the scene at ``fps``; ``engine_rig``: the file's engine
-    rig, already loaded (a jobs worker reopens the file for every row, loads the rig once)."""
+def _check_fps(fps: float) -> None:
     try:
         check_fps(fps)
     except UserError:
         raise UserError(f"--fps {fps} is outside 1..240") from None
-    if rig_path == MASK:
-        rig_obj = face.build_default_rig_object(progress)
-    elif rig_path:
-        open_blend(rig_path)
-        rig_obj = next((o for o in bpy.data.objects if is_rig(o, face.KIND) or is_rig(o, character.KIND)), None)
-        if rig_obj is None:
-            raise UserError(f"{rig_path} holds no Faces & Hands face rig or character")
-        if engine_rig is not None:
-            adopt_rig(rig_obj, engine_rig)
-    else:
-        rig_obj = character.build_character_object(progress)
+
+
+def _prepare_rig(rig_path: str | None, fps: float, progress, engine_rig=None):
+    """The rig of ``rig_path`` (a face rig or a character in a .blend; the built-in rigs come as files too,
+    :func:`built_in_rig_file`), with the scene at ``fps``; ``engine_rig``: the file's engine rig, already
+    loaded (a jobs worker reopens the file for every row, loads the rig once)."""
+    _check_fps(fps)
+    if rig_path in (None, MASK):
+        raise ValueError("a built-in rig is opened from its file (run_line)")
+    open_blend(rig_path)
+    rig_obj = next((o for o in bpy.data.objects if is_rig(o, face.KIND) or is_rig(o, character.KIND)), None)
+    if rig_obj is None:
+        raise UserError(f"{rig_path} holds no Faces & Hands face rig or character")
+    if engine_rig is not None:
+        adopt_rig(rig_obj, engine_rig)
     set_scene_fps(bpy.context.scene, fps)
     return rig_obj
 
@@ -148,7 +152,12 @@ def write_cues(take, path: Path, sound_file: str = "") -> Path:
 
 def run_line(spec: dict, rig_path, fps, progress, engine_rig=None) -> list[Path]:
     """One take, ``spec`` as ``batch.checked_spec`` returns it: out and text (+voice, rate) or audio
-    (+transcript, language in ``voice``); ``engine_rig``: ``rig_path``'s engine rig, already loaded."""
+    (+transcript, language in ``voice``); ``engine_rig``: ``rig_path``'s engine rig, already loaded. A
+    built-in rig (None: the default character, ``"mask"``) is opened from its file for the take
+    (:func:`built_in_rig_file`: the user's cache folder keeps it), which stays until the take is written."""
+    if rig_path in (None, MASK):
+        with tempfile.TemporaryDirectory(prefix="fh-rig-") as folder:
+            return run_line(spec, built_in_rig_file(folder, fps, progress, rig_path), fps, progress)
     from ...faces_hands_addon.speech.takes import take_from_audio, take_from_text
     out = Path(spec["out"])
     sheet_path = Path(spec["sheet"]) if spec.get("sheet") else None
@@ -177,9 +186,42 @@ def run_line(spec: dict, rig_path, fps, progress, engine_rig=None) -> list[Path]
 
 
 def shared_default_rig(folder: str, fps: float, progress, which: str | None = None) -> str:
-    """Build the default character (``which`` ``"mask"``: the face-only head) once into ``folder`` for every
+    """The default character (``which`` ``"mask"``: the face-only head) as a file in ``folder`` for every
     row of a jobs CSV; returns its path."""
-    _prepare_rig(which, fps, progress)
-    rig_path = str(Path(folder) / "rig.blend")
-    bpy.ops.wm.save_as_mainfile(filepath=rig_path, copy=True, check_existing=False)
-    return rig_path
+    return built_in_rig_file(folder, fps, progress, which)
+
+
+#: the built-in rigs' build options (their builders' defaults), part of their cache key
+_CHARACTER = {"name": "FH Character", "skeleton": "game_engine", "hands": True}
+_MASK = {"name": "FH Head", "resolution": "default"}
+
+
+def built_in_rig_file(folder: str, fps: float, progress, which: str | None = None) -> str:
+    """``folder``/rig.blend holding the default character (``which`` ``"mask"``: the face-only default head)
+    at ``fps``: a copy of the built file in the rig cache when its entry checks out (``core.file_cache``),
+    else built now and stored there. A damaged or unreadable entry is said and built again, never used.
+    Every caller opens the file it returns, so a line's bytes are the same whether the cache held it or not
+    (the rig is always the one saved and opened again, its engine rig loaded from the file)."""
+    _check_fps(fps)
+    rig_path = Path(folder) / "rig.blend"
+    what, options = ("mask", _MASK) if which == MASK else ("character", _CHARACTER)
+    cache = rig_cache()
+    key, parts = rig_cache_key(what, fps, options) if cache is not None else ("", {})
+    if cache is not None:
+        fetched = cache.fetch(key, rig_path)
+        if fetched.hit:
+            print(f"the default {what} from the cache: {cache.record_path(key)}")
+            return str(rig_path)
+        if fetched.problem:
+            print(f"warning: the cached default {what} ({cache.record_path(key)}) cannot be used: "
+                  f"{fetched.problem}; building it again")
+    if which == MASK:
+        face.build_default_rig_object(progress, _MASK["name"], _MASK["resolution"])
+    else:
+        character.build_character_object(progress, _CHARACTER["name"], _CHARACTER["skeleton"])
+    set_scene_fps(bpy.context.scene, fps)
+    with quiet_stdout():
+        bpy.ops.wm.save_as_mainfile(filepath=str(rig_path), copy=True, check_existing=False)
+    if cache is not None and cache.store(key, rig_path, parts) is not None:
+        print(f"the default {what} kept for the next runs: {cache.record_path(key)}")
+    return str(rig_path)
