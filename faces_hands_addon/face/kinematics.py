@@ -15,8 +15,8 @@ from ..physics import kernel
 from . import lid_kernel
 from .organs import CORNEA_BULGE, CORNEA_DEG, cornea_bulge
 
-__all__ = ["JawLimits", "rotation", "jaw_matrix", "opening_glide", "eye_matrix", "tongue_matrix", "LidRig", "EYE_YAW_DEG",
-           "EYE_PITCH_DEG"]
+__all__ = ["JawLimits", "rotation", "jaw_matrix", "opening_glide", "eye_matrix", "tongue_matrix", "LidRig",
+           "eye_elevation", "EYE_YAW_DEG", "EYE_PITCH_DEG"]
 
 EYE_YAW_DEG = 35.0       # gaze range left/right at eye_yaw = +-1
 EYE_PITCH_DEG = 25.0     # gaze range up/down at eye_pitch = +-1
@@ -111,7 +111,7 @@ def tongue_matrix(jaw: np.ndarray, pivot: np.ndarray, tip_up: float, back: float
     return jaw @ shift @ raise_tip
 
 
-def _elevation(points: np.ndarray, centre: np.ndarray) -> np.ndarray:
+def eye_elevation(points: np.ndarray, centre: np.ndarray) -> np.ndarray:
     """Angle above the forward (-Y) direction about the eye's horizontal (X) axis."""
     d = points - centre
     return np.arctan2(d[:, 2], -d[:, 1])
@@ -200,7 +200,7 @@ class LidRig:
         # beyond the canthi both margins meet: clamp to the corner elevation (np.interp does)
         theta_u = np.interp(x, self._ux, self._ue)
         theta_l = np.interp(x, self._lx, self._le)
-        elevation = _elevation(nodes, self.centre)
+        elevation = eye_elevation(nodes, self.centre)
         near = np.linalg.norm(nodes - self.centre, axis=1) < radius
         # a node on a canthus, where both margins meet, belongs to the lower lid (it stays when the lid
         # closes): an exact tie must not be decided by the last bit of the elementwise trigonometry, which
@@ -217,7 +217,7 @@ class LidRig:
     def _curve(self, margin: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Margin elevation as a function of x (sorted samples for ``np.interp``)."""
         order = np.argsort(margin[:, 0], kind="stable")
-        return margin[order, 0], _elevation(margin[order], self.centre)
+        return margin[order, 0], eye_elevation(margin[order], self.centre)
 
     def rotations(self, close: float, pitch: float, lift: float = 0.0, squeeze: float = 0.0,
                   nodes: np.ndarray | None = None) -> np.ndarray:

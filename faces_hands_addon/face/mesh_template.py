@@ -13,7 +13,7 @@ from scipy.spatial import cKDTree
 from ..core import geometry
 from .attachment import signed_bone_distance, smoothing_operator
 from . import organs as organ_meshes
-from .kinematics import LidRig, _elevation, cornea_bulge
+from .kinematics import LidRig, cornea_bulge, eye_elevation
 from .skin import GROUPS, SkinMesh
 from .template import HeadTemplate, OrganRecord, SkinRecord
 from .transfer import MeshTransfer
@@ -176,7 +176,7 @@ def _closing_overlap(lid: LidRig, nodes: np.ndarray, upper: np.ndarray, lower: n
         lid.overlap = overlap
         closed = []
         for ids in (upper, lower):
-            elevation = _elevation(nodes[ids], lid.centre) + lid.rotations(1.0, 0.0, nodes=ids)
+            elevation = eye_elevation(nodes[ids], lid.centre) + lid.rotations(1.0, 0.0, nodes=ids)
             order = np.argsort(nodes[ids, 0], kind="stable")
             closed.append((nodes[ids, 0][order], elevation[order]))
         lo = min(closed[0][0][0], closed[1][0][0])
