@@ -17,7 +17,7 @@ from .body import HEAD_FRACTION
 from .model import Character, build_character, eye_frames
 
 __all__ = ["head_submesh", "fit_face", "placed_eyes", "brow_paint", "build_character_rig", "rig_stages",
-           "FACE_SEED"]
+           "run_stages", "FACE_SEED"]
 
 FACE_SEED = 0
 
@@ -101,10 +101,16 @@ def rig_stages(skeleton: str = "game_engine", hands: bool = True):
 def build_character_rig(skeleton: str = "game_engine", progress=None, hands: bool = True):
     """The character (:func:`.model.build_character`) and its rig of rigs, all stages of :func:`rig_stages`;
     ``progress(fraction, message)`` is called after each."""
-    for item in rig_stages(skeleton, hands):
+    return run_stages(rig_stages(skeleton, hands), progress, "the character rig was not built")
+
+
+def run_stages(stages, progress, failure: str):
+    """Drive a generator of ``(fraction, message)`` stages that ends by yielding its result; ``progress``
+    (or None) is called with each stage; ``failure`` is the message if no result came."""
+    for item in stages:
         if isinstance(item, tuple):
             if progress is not None:
                 progress(*item)
         else:
             return item
-    raise UserError("the character rig was not built")
+    raise UserError(failure)

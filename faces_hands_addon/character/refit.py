@@ -24,7 +24,7 @@ from typing import Iterable, Mapping
 import numpy as np
 
 from ..core.errors import UserError
-from .fitting import FACE_SEED, brow_paint, fit_face, placed_eyes
+from .fitting import FACE_SEED, brow_paint, fit_face, placed_eyes, run_stages
 
 __all__ = ["morphed_body", "refit_stages", "refit_character_rig", "target_expressions", "EXPRESSION_SETS"]
 
@@ -67,13 +67,7 @@ def refit_stages(rig, model, head: np.ndarray, seed: int = FACE_SEED):
 
 def refit_character_rig(rig, model, head: np.ndarray, progress=None, seed: int = FACE_SEED):
     """All stages of :func:`refit_stages`; ``progress(fraction, message)`` after each."""
-    for item in refit_stages(rig, model, head, seed):
-        if isinstance(item, tuple):
-            if progress is not None:
-                progress(*item)
-        else:
-            return item
-    raise UserError("the face rig was not refitted")
+    return run_stages(refit_stages(rig, model, head, seed), progress, "the face rig was not refitted")
 
 
 def target_expressions(key_names: Iterable[str], specs: Mapping,
