@@ -295,18 +295,20 @@ class _Stage:
         weights = np.zeros((len(rhs), matrix.shape[1]))
         solved = np.zeros(len(rhs), bool)
         # numba here (not merely loaded by whatever ran before in this process): the compiled and the
-        # scipy solvers agree to rounding only, so the choice may not depend on the process's history
-        if kernel.available() and kernel.compiled(_sets_settled) is not None:
+        # scipy solvers agree to rounding only, so the choice may not depend on the process's history; and
+        # compiled standalone, so a fit does not load the substep kernel and turn the next line's small
+        # face network (the "auto" backend) onto it
+        if kernel.numba_usable() and kernel.compiled(_sets_settled, standalone=True) is not None:
             low, high = self._sets
             hessian = np.ascontiguousarray(matrix.T @ matrix)
             targets = np.ascontiguousarray(rhs @ matrix)                  # A^T b of every frame
             tolerances = 1e-9 * np.maximum(1.0, np.abs(targets).max(axis=1))   # as _optimal's
             if matrix.shape[0] > matrix.shape[1]:                        # the prior rows stacked below
-                kernel.compiled(_box_normal, _sets_settled)(hessian, targets, tolerances, low, high, BOX_ROUNDS,
-                                                            weights, solved)
+                box_normal = kernel.compiled(_box_normal, _sets_settled, standalone=True)
+                box_normal(hessian, targets, tolerances, low, high, BOX_ROUNDS, weights, solved)
             else:
-                kernel.compiled(_box_qr, _sets_settled)(matrix, rhs, hessian, targets, tolerances, low, high,
-                                                        BOX_ROUNDS, weights, solved)
+                box_qr = kernel.compiled(_box_qr, _sets_settled, standalone=True)
+                box_qr(matrix, rhs, hessian, targets, tolerances, low, high, BOX_ROUNDS, weights, solved)
         for f in np.flatnonzero(~solved):
             weights[f] = bounded_nnls(matrix, rhs[f])
         return weights

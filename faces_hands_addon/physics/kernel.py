@@ -37,7 +37,7 @@ from pathlib import Path
 
 __all__ = ["set_cache_folder", "cache_folder", "available", "substep_kernel", "guard_kernels",
            "compile_seconds", "ENV_VARIABLE", "AUTO_MIN_NODES", "AUTO_MIN_NODE_FRAMES", "pays_for", "loaded",
-           "BACKENDS", "expect_frames", "set_interactive", "compiled", "largest_move"]
+           "BACKENDS", "expect_frames", "set_interactive", "compiled", "largest_move", "numba_usable"]
 
 #: environment variable: "numpy" forces the reference path, "numba" the kernel for every network; unset:
 #: the kernel for networks of at least AUTO_MIN_NODES nodes
@@ -400,17 +400,40 @@ def guard_kernels():
     return _STATE["half_space"], _STATE["sphere"], _STATE["still_planes"]
 
 
-def compiled(function, *helpers):
+def numba_usable() -> bool:
+    """Is numba importable here and not switched off? Asked without loading the substep kernel, so the
+    answer depends on the environment alone and asking it changes no later choice (:func:`loaded`)."""
+    if os.environ.get(ENV_VARIABLE, "").lower() == "numpy":
+        return False
+    if "numba" not in _STATE:
+        try:
+            import numba  # noqa: F401
+            _STATE["numba"] = True
+        except Exception:                 # not installed, or an unsupported numpy
+            _STATE["numba"] = False
+    return _STATE["numba"]
+
+
+def compiled(function, *helpers, standalone: bool = False):
     """``function`` compiled as the substep kernel is (numba, ``nogil``, cached in the same folder), once
     per process, or ``None`` where the numpy path must run (numba missing or switched off). For other
     engine loops that earn a compiled version (e.g. the weight fit of :mod:`..anim.weights`). ``helpers``:
-    module-level functions ``function`` calls, compiled first and called compiled."""
-    if substep_kernel() is None:
+    module-level functions ``function`` calls, compiled first and called compiled. ``standalone``: without
+    loading the substep kernel (a loop whose use must not change what :func:`loaded` says afterwards)."""
+    if standalone:
+        if not numba_usable():
+            return None
+        folder = _STATE["folder"]
+        if folder is not None:
+            folder.mkdir(parents=True, exist_ok=True)
+            import numba
+            numba.config.CACHE_DIR = str(folder)
+    elif substep_kernel() is None:
         return None
     key = (function.__module__, function.__qualname__)
     if key not in _COMPILED:
         import numba
-        names = {helper.__name__: compiled(helper) for helper in helpers}
+        names = {helper.__name__: compiled(helper, standalone=standalone) for helper in helpers}
         if names:
             function = _calling(function, names)
         _COMPILED[key] = numba.njit(cache=_STATE["folder"] is not None, nogil=True, boundscheck=False)(function)

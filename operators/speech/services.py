@@ -39,8 +39,8 @@ def rig_file(rig: str | None) -> str | None:
 def _check_fps(fps: float) -> None:
     try:
         check_fps(fps)
-    except UserError:
-        raise UserError(f"--fps {fps} is outside 1..240") from None
+    except UserError as error:
+        raise UserError(f"--fps: {error}") from None
 
 
 def _prepare_rig(rig_path: str | None, fps: float, progress, engine_rig=None):

@@ -198,3 +198,22 @@ def test_the_weight_fit_does_not_depend_on_what_loaded_the_kernel_before(monkeyp
     kernel.substep_kernel()
     later = WeightSolver(basis, extra).solve_many(frames)
     assert first[0].tobytes() == later[0].tobytes() and first[1].tobytes() == later[1].tobytes()
+
+
+@pytest.mark.skipif(importlib.util.find_spec("numba") is None, reason="numba is not importable here")
+def test_a_weight_fit_leaves_the_substep_kernel_unloaded():
+    """The fit compiles its own loop without loading the substep kernel: a jobs line on the face-only head
+    (a small network, the "auto" backend's numpy path) must not turn the next line's settle onto the kernel
+    (the same line twice in one process gave two GLBs)."""
+    import os
+    import subprocess
+    import sys
+    script = (
+        "import sys, numpy as np; from faces_hands_addon.physics import kernel as k; "
+        "from faces_hands_addon.anim.weights import TargetBasis, WeightSolver; "
+        "rng = np.random.default_rng(2); b = TargetBasis(tuple('t%d' % i for i in range(8)), "
+        "rng.normal(size=(8, 40, 3))); w, r = WeightSolver(b).solve_many(rng.normal(size=(12, 40, 3))); "
+        "sys.exit(0 if (not k.loaded() and k.numba_usable() and w.shape == (12, 8)) else 1)")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
+    env.pop("FH_PHYSICS_KERNEL", None)
+    subprocess.run([sys.executable, "-c", script], check=True, env=env, timeout=600)
