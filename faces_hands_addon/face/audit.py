@@ -21,6 +21,7 @@ from scipy.spatial import cKDTree
 
 from ..core import geometry
 from .expressions import expression_controls
+from .skin import hidden_nodes
 
 __all__ = ["Probe", "measure", "settle_expression", "MM"]
 
@@ -136,7 +137,7 @@ class Probe:
         d, idx = tree.query(mirrored)
         self.mirror = np.where(d <= 0.003, idx, -1)
         self.rest_normals = _face_normals(self.rest, self.faces)
-        hidden = skin.group("lip_inner") | skin.group("mouth_bag") | skin.group("lid_back")
+        hidden = hidden_nodes(skin)
         self.outside = ~np.any(hidden[self.faces], axis=1)      # triangles a camera can see
 
 

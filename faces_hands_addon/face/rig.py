@@ -36,6 +36,7 @@ from .lip_contact import LipContact
 from .pressure import CheekPressure
 from .network import FaceNetwork, SkinMaterial, build_network
 from .persistence import read_saved_rig, restore_state, saved_state
+from .skin import hidden_nodes
 from .template import HeadTemplate, build_template, default_inputs
 from .unfold import FoldMender, touching
 
@@ -281,8 +282,8 @@ class FaceRig:
     def _advance(self, dt: float) -> None:
         """Simulate one frame of ``dt`` seconds (guards slide with the jaw during the frame); the state only
         (:meth:`step_frame` also returns the positions, which :meth:`settle` needs only after its last frame)."""
-        face = self.face
         anchor, mirror, driven = self._frame_targets()
+        face = self.face
         bones = [_IDENTITY, self._jaw_now]
         for guard in (face.bone_guard, face.teeth_guard):
             guard.begin_frame()                        # planes slide with the jaw during the frame
@@ -329,7 +330,7 @@ class FaceRig:
         and lids' contact is what the simulation made it; a margin apart from the other lip may move."""
         skin = self.template.skin
         if self._mender is None:
-            hidden = skin.group("lip_inner") | skin.group("mouth_bag") | skin.group("lid_back")
+            hidden = hidden_nodes(skin)
             pinned = hidden.copy()
             for key in ("eye_L_upper", "eye_L_lower", "eye_R_upper", "eye_R_lower"):
                 if key in skin.contours:
@@ -346,7 +347,7 @@ class FaceRig:
         movable = self._mender.movable.copy()
         margins = [np.asarray(skin.contours.get(k, ()), np.int64) for k in ("lips_inner_upper", "lips_inner_lower")]
         movable[touching(positions, *margins, LIP_CONTACT)] = False
-        left = self._mender.mend(positions, movable)
+        left = self._mender.mend(positions, movable, folds)
         if self._mender.mended:
             x[...] = positions.T
         return left

@@ -21,7 +21,7 @@ from scipy import sparse
 from ..core.errors import UserError
 from ..core import geometry, refine
 
-__all__ = ["SkinMesh", "build_skin", "eyeball_sphere", "close_rest_lips", "RESOLUTIONS"]
+__all__ = ["SkinMesh", "build_skin", "eyeball_sphere", "close_rest_lips", "hidden_nodes", "RESOLUTIONS"]
 
 #: resolution name -> (edge length above which base edges are split (m), Loop subdivision levels)
 RESOLUTIONS = {"coarse": (0.020, 0), "default": (0.020, 1), "10k": (0.020, 2)}
@@ -62,6 +62,12 @@ class SkinMesh:
     @property
     def node_count(self) -> int:
         return int(self.vertices.shape[0])
+
+
+def hidden_nodes(skin) -> np.ndarray:
+    """(N,) bool: nodes a camera does not see (inner lips, mouth bag, lid backs); ``skin``: anything with
+    ``group(name)`` (:class:`SkinMesh`, the template's skin record). A triangle with none of them is outer skin."""
+    return skin.group("lip_inner") | skin.group("mouth_bag") | skin.group("lid_back")
 
 
 def eyeball_sphere(margin_points: np.ndarray, radius: float = EYEBALL_RADIUS, gap: float = LID_GAP) -> np.ndarray:

@@ -78,19 +78,20 @@ class FoldMender:
             mask = mask | (np.asarray(self.adjacency @ mask.astype(np.float64)).ravel() > 0)
         return mask
 
-    def mend(self, positions: np.ndarray, movable: np.ndarray | None = None) -> int:
+    def mend(self, positions: np.ndarray, movable: np.ndarray | None = None,
+             folds: np.ndarray | None = None) -> int:
         """Mend ``positions`` (N, 3) float64, in place (``movable``: this pose's movable nodes, default the
-        mender's); returns how many visible folds are left (0 if all
-        mended or none were there). Each connected piece of the region is kept only where it leaves fewer
+        mender's; ``folds``: :meth:`folded` of ``positions`` if the caller has it); returns how many visible
+        folds are left (0 if all mended or none were there). Each connected piece of the region is kept only where it leaves fewer
         folds than the skin had there, so a fold that cannot be mended is left as the settle made it.
         Deterministic: the same positions give the same bytes."""
-        folds = self.folded(positions)
+        folds = self.folded(positions) if folds is None else folds
         self.mended = 0
         if len(folds) == 0:
             return 0
         first = len(folds)
         movable = self.movable if movable is None else movable
-        original = positions.copy()
+        original = positions                 # read only until the end: every trial starts from it
         best, best_folds = positions.copy(), folds
         region = np.zeros(len(self.rest), bool)
         for round_ in range(ROUNDS):

@@ -368,12 +368,7 @@ def _load():
     started = time.perf_counter()
     folder = _STATE["folder"]
     try:
-        if folder is not None:
-            folder.mkdir(parents=True, exist_ok=True)
-            os.environ.setdefault("NUMBA_CACHE_DIR", str(folder))
-        import numba
-        if folder is not None:
-            numba.config.CACHE_DIR = str(folder)
+        numba = _numba_in_cache_folder()
         jit = numba.njit(cache=folder is not None, nogil=True, boundscheck=False)
         # IEEE division (no zero-divisor check, the guarded divisor is >= 1e-12): lets the spring loop vectorise
         fast = numba.njit(cache=folder is not None, nogil=True, boundscheck=False, error_model="numpy")
@@ -400,6 +395,18 @@ def guard_kernels():
     return _STATE["half_space"], _STATE["sphere"], _STATE["still_planes"]
 
 
+def _numba_in_cache_folder():
+    """numba, its compiled code cached in :func:`set_cache_folder`'s folder (if one is set)."""
+    folder = _STATE["folder"]
+    if folder is not None:
+        folder.mkdir(parents=True, exist_ok=True)
+        os.environ.setdefault("NUMBA_CACHE_DIR", str(folder))
+    import numba
+    if folder is not None:
+        numba.config.CACHE_DIR = str(folder)
+    return numba
+
+
 def numba_usable() -> bool:
     """Is numba importable here and not switched off? Asked without loading the substep kernel, so the
     answer depends on the environment alone and asking it changes no later choice (:func:`loaded`)."""
@@ -423,11 +430,7 @@ def compiled(function, *helpers, standalone: bool = False):
     if standalone:
         if not numba_usable():
             return None
-        folder = _STATE["folder"]
-        if folder is not None:
-            folder.mkdir(parents=True, exist_ok=True)
-            import numba
-            numba.config.CACHE_DIR = str(folder)
+        _numba_in_cache_folder()
     elif substep_kernel() is None:
         return None
     key = (function.__module__, function.__qualname__)
