@@ -83,6 +83,8 @@ class MuscleSpec:
     squeeze: tuple[float, float] = (0.2, 0.3)  # sphincter: (horizontal, vertical) shrink of the inner fibre
     taper: float = 0.0                        # sphincter: outer fibres shrink (inner/outer)^taper as much
     protrusion: tuple[float, float] = (0.0, 0.0)   # orbicularis oris: (forward, backward) travel, m
+    red_lip_columns: int = 0                  # orbicularis oris: coarse columns out to the vermilion border,
+    #                                           which travel as the innermost fibre (see .muscles)
     rounding: tuple[float, float] = (0.0, 0.0)  # orbicularis oris, contracted and protruded: (extra sideways
     #                                           shrink, lateral closure) of the inner fibre (see .muscles)
     rounding_taper: float = 0.0               # outer fibres shrink sideways (inner/outer)^rounding_taper as much
@@ -150,6 +152,7 @@ def parse_muscle_specs(text: str, mirror: np.ndarray, path: str = "muscles.json"
                 centre=parse_point(entry["centre"]) if "centre" in entry else None,
                 squeeze=tuple(entry.get("squeeze", (0.2, 0.3))), taper=float(entry.get("taper", 0.0)),
                 protrusion=tuple(v * mm for v in entry.get("protrusion_mm", (0.0, 0.0))),
+                red_lip_columns=int(entry.get("red_lip_columns", 0)),
                 rounding=tuple(entry.get("rounding", (0.0, 0.0))),
                 rounding_taper=float(entry.get("rounding_taper", 0.0)),
                 group=entry.get("group", ""),

@@ -93,6 +93,18 @@ def _transform(matrix: np.ndarray, points: np.ndarray) -> np.ndarray:
     return points @ matrix[:3, :3].T + matrix[:3, 3]
 
 
+def _protrusion_weights(columns: int, red_lip: int) -> np.ndarray:
+    """Share of the orbicularis oris' travel each fibre (column, innermost first) takes when the lips
+    protrude or retract: the fibres under the red lip (out to the vermilion border, ``red_lip`` refined
+    columns; the pars marginalis) move as one with the innermost, the outer ones less and less, the outermost
+    not at all (3.1.2 "Muscle Deformation": the centre is shifted "gradually"). Tapering from the innermost
+    fibre instead left the vermilion border with half the travel: the lips' outline hardly came forward."""
+    if columns <= 1:
+        return np.ones(max(columns, 1))
+    full = int(np.clip(red_lip, 0, columns - 1))
+    return np.concatenate([np.ones(full), np.linspace(1.0, 0.0, columns - full)])
+
+
 class MuscleSystem:
     """All muscles of a head as flat arrays (see the module docstring)."""
 
@@ -186,7 +198,7 @@ class MuscleSystem:
             horizontal, vertical, sideways, lateral = self.fibre_squeeze[index]
             spec = self.specs[index]
             grid = lambda values: np.broadcast_to(values, (rows, cols)).ravel()      # noqa: E731
-            inner = np.linspace(1.0, 0.0, cols) if cols > 1 else np.ones(1)
+            inner = _protrusion_weights(cols, spec.red_lip_columns * max(1, int(spec.refine[1])))
             oris = spec.group == "oris"
             pieces.append((np.arange(self.offsets[index], self.offsets[index + 1]), np.full(rows * cols, index),
                            grid(horizontal), grid(vertical), grid(sideways), grid(lateral),

@@ -77,6 +77,18 @@ def test_orbicularis_oris_closes_the_lips_and_protrudes_them(rig):
     assert d[13, 1] > 1.0                                             # retracted: back
 
 
+def test_protruded_lips_come_forward_as_a_whole(rig):
+    """Protrusion carries the red lip out to its outline (the vermilion border, canonical 0 and 17) nearly as
+    far as its inner edge (13, 14): the lips move as a body, and the skin around them follows less (3.1.2
+    "Muscle Deformation": the centre shifted "gradually"; a taper starting at the inner edge left the outline
+    with half the travel, and mouthFunnel, viseme_oh/ou/CH/RR short of their protrusion on most heads)."""
+    d = displacement(rig, {"orbicularis_oris_protrusion": 1.0})
+    for outline, inner in ((0, 13), (17, 14)):
+        assert d[outline, 1] < 0.7 * d[inner, 1] < 0.0, (outline, d[outline, 1], d[inner, 1])
+    chin = rig.template.skin.vertices[:, 2] * MM < rig.template.skin.vertices[17, 2] * MM - 15.0
+    assert np.abs(d[chin, 1]).max() < 0.5 * abs(d[17, 1])           # the chin stays
+
+
 def test_lip_raisers_and_depressors(rig):
     assert displacement(rig, {"levator_labii_superioris_R": 1.0})[39, 2] > 2.0
     assert displacement(rig, {"depressor_labii_inferioris_R": 1.0})[181, 2] < -2.0
@@ -173,7 +185,9 @@ def _reference_deform(m, contraction, protrusion, jaw):
             if oris and protrusion != 0.0:
                 travel = spec.protrusion[0] if protrusion > 0 else spec.protrusion[1]
                 outer = 0.0 if protrusion > 0 else 0.5         # pulled back, the outer fibre goes half as far
-                local[..., 1] -= protrusion * travel * np.linspace(1.0, outer, cols)[None, :]
+                red = spec.red_lip_columns * spec.refine[1]      # out to the vermilion border: as the innermost
+                profile = np.concatenate([np.ones(red), np.linspace(1.0, outer, cols - red)])
+                local[..., 1] -= protrusion * travel * profile[None, :]
             points[sl] = (local @ axes + centre).reshape(-1, 3)
             own[sl] = np.broadcast_to(0.5 * (sx + sz), (rows, cols)).ravel()
     before, moved = points.copy(), points.copy()
