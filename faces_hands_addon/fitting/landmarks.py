@@ -20,7 +20,7 @@ automatically by registering the canonical face onto the target:
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -39,6 +39,7 @@ __all__ = ["LandmarkFit", "locate_landmarks", "MAX_RMS_FRACTION", "MIN_MATCHED_F
 
 MAX_RMS_FRACTION = 0.04        # a fit whose RMS distance exceeds 4 % of the face width failed
 MIN_MATCHED_FRACTION = 0.5     # ... as does one where fewer than half the landmarks found the surface
+MAX_RETRIES = 3                # runner-up orientations tried when the best match's fit is refused
 _CROP_MARGIN = 0.4             # face-region crop around the placed template, in face widths
 _FACE_SAMPLES = 2000           # target points for the reverse (target -> template) term
 
@@ -198,10 +199,31 @@ def _locate(target_vertices, target_faces, *, seed: int, progress, forward: str 
     normals, areas = triangle_normals(local, faces)
     rng = np.random.default_rng(seed)
     template = face_template()
-    warnings = []
 
     report(0.0, "searching for the face")
     choice = choose_orientation(local, faces, areas, template, rng, forward=forward, up=up)
+    attempts = [choice] + [replace(choice, match=m, margin=1.0) for m in choice.runners_up[:MAX_RETRIES]]
+    refused = None
+    for attempt in attempts:
+        try:
+            fit = _fit_oriented(attempt, vertices, faces, local, normals, areas, unit, centre, template, rng,
+                                seed, check, report)
+        except FitRefused as exc:
+            refused = refused or exc          # the best match's refusal is the one the user reads
+            continue
+        if attempt is not choice:
+            fit = replace(fit, warnings=fit.warnings + (
+                f"the best face match ({choice.name}) did not fit a face; fitted {attempt.name}, the next "
+                "best: check the result, or give the head's axes with --forward/--up",))
+        return fit
+    raise refused
+
+
+def _fit_oriented(choice, vertices, faces, local, normals, areas, unit, centre, template, rng, seed, check,
+                  report) -> LandmarkFit:
+    """Steps 2-7 of :func:`locate_landmarks` for one orientation ``choice`` (the rigid, affine, non-rigid
+    and sliding fits, lids, symmetry and the quality gate); raises :class:`.FitRefused` as they do."""
+    warnings = []
     match = choice.match
     report(0.25, "rigid alignment")
     placed = match.similarity.apply(template.vertices)

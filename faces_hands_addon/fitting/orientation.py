@@ -87,6 +87,7 @@ class OrientationChoice:
     ranking: tuple
     margin: float
     forced: bool
+    runners_up: tuple = ()        # refined matches of other orientations that still look like a face, best first
 
     @property
     def name(self) -> str:
@@ -157,4 +158,16 @@ def choose_orientation(vertices, faces, areas, template, rng, *, forward: str | 
                         "face mask" + ("" if forced else "; if it is, give its axes with --forward/--up"))
     others = rivals + [m for m in coarse if _distinct(m.facing, best.facing)]
     margin = float(min(m.score for m in others) / best.score) if others else 1.0
-    return OrientationChoice(best, ranking, margin, forced)
+    return OrientationChoice(best, ranking, margin, forced, _runners_up(best, rivals))
+
+
+def _runners_up(best: DepthMatch, rivals: list) -> tuple:
+    """The refined rivals that still show a face-like relief, one per orientation, best first: what the fit
+    tries next when the winner's fit does not look like a face (a near tie, ``margin`` ~1)."""
+    kept, seen = [], {orientation_name(best.facing.forward, best.facing.up)}
+    for match in sorted(rivals, key=lambda m: m.score):
+        name = orientation_name(match.facing.forward, match.facing.up)      # a tilt counts as its nearest axes
+        if match.score <= _FACE_SCORE_LIMIT and name not in seen:
+            kept.append(match)
+            seen.add(name)
+    return tuple(kept)

@@ -162,3 +162,43 @@ def test_refusal_preview_is_a_picture_of_the_face_found(mask, upright):
     assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 1000
     error = FitRefused("no", mask.vertices, mask.faces, upright.positions, upright.rigid_rotation.T)
     assert error.preview().shape == image.shape
+
+
+def _upside_down_first(monkeypatch, keep_runner_up: bool):
+    """The face search answers with the head upside down (a near tie it can lose on a long-necked head, as
+    the held-out SOMA head did: crown and face scored 0.293 and 0.397) and, when ``keep_runner_up``, the true
+    orientation as its runner-up."""
+    from dataclasses import replace
+
+    from faces_hands_addon.fitting import landmarks
+    from faces_hands_addon.fitting.align import DepthMatch, Similarity
+
+    real = landmarks.choose_orientation
+
+    def upside_down(*args, **kwargs):
+        choice = real(*args, **kwargs)
+        right = choice.match
+        flip = np.diag([-1.0, 1.0, -1.0])                     # 180 degrees about the face's forward axis
+        wrong = DepthMatch(axis_facing("-Y", "-Z"), 0.9 * right.score,
+                           Similarity(right.similarity.scale, right.similarity.rotation @ flip,
+                                      right.similarity.translation), right.coverage)
+        return replace(choice, match=wrong, runners_up=(right,) if keep_runner_up else ())
+    monkeypatch.setattr(landmarks, "choose_orientation", upside_down)
+
+
+def test_a_refused_best_match_falls_back_to_the_runner_up(mask, upright, monkeypatch):
+    """When the best depth match's fit does not look like a face, the next orientation that does is fitted
+    (and the user is told), instead of refusing a head that is one."""
+    _upside_down_first(monkeypatch, keep_runner_up=True)
+    fit = locate_landmarks(mask.vertices, mask.faces, seed=0)
+    assert fit.orientation["orientation"] == "forward -Y, up +Z"
+    assert any("did not fit a face" in w and "forward -Y, up -Z" in w for w in fit.warnings), fit.warnings
+    same = np.linalg.norm(fit.positions - upright.positions, axis=1) / mask.face_width
+    assert np.median(same) < SAME_MEDIAN
+
+
+def test_without_a_runner_up_the_best_match_is_refused(mask, monkeypatch):
+    """No runner-up that looks like a face: the refusal names the best match's orientation."""
+    _upside_down_first(monkeypatch, keep_runner_up=False)
+    with pytest.raises(FitRefused, match=r"forward -Y, up -Z"):
+        locate_landmarks(mask.vertices, mask.faces, seed=0)
