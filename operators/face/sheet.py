@@ -15,11 +15,12 @@ from typing import Callable
 
 import bpy
 import numpy as np
+from mathutils import Matrix, Vector
 
 from ...faces_hands_addon.anim.layers import BASE_LAYER, LAYERS
 from ..adapters import render
 from ..adapters.poses import push_pose
-from ..adapters.rig_store import get_rig, parts, to_world
+from ..adapters.rig_store import get_rig, output_to_local, parts, to_world
 from .objects import update_muscle_display
 
 Cell = tuple[str, dict]
@@ -65,6 +66,32 @@ def _show(obj, rig, pose) -> None:
     update_muscle_display(obj, rig)
 
 
+def head_frame(obj, rig) -> tuple[np.ndarray, float, np.ndarray]:
+    """Where the rig's head space (face along -Y, top +Z; 3.1.2's template frame) is in the scene: the 4x4
+    from head space to world (object matrix, the fit's mesh frame, ``head_to_mesh``), its uniform scale
+    and its rotation. A head imported from an OBJ or FBX carries a turn in its object matrix and another
+    in its own axes; the sheet's camera looks at the face through both."""
+    head_to_mesh = np.asarray(getattr(rig, "head_to_mesh", np.eye(4)), np.float64)
+    matrix = np.asarray(obj.matrix_world, np.float64) @ output_to_local(obj) @ head_to_mesh
+    linear = matrix[:3, :3]
+    scale = float(abs(np.linalg.det(linear)) ** (1.0 / 3.0)) or 1.0
+    u, _, vt = np.linalg.svd(linear / scale)              # the nearest rotation (an object scaled unevenly)
+    turn = u @ vt
+    if np.linalg.det(turn) < 0:                           # mirrored: keep a proper rotation for the camera
+        turn = u @ np.diag([1.0, 1.0, -1.0]) @ vt
+    return matrix, scale, turn
+
+
+def _into_world(placed, head_to_world: np.ndarray, scale: float, turn: np.ndarray) -> None:
+    """Move an object placed in head space (location, rotation) to the same place relative to the head."""
+    location = head_to_world[:3, :3] @ np.asarray(placed.location, np.float64) + head_to_world[:3, 3]
+    rotation = turn @ np.asarray(placed.rotation_euler.to_matrix(), np.float64)
+    matrix = Matrix.Translation(Vector(location)) @ Matrix(rotation.tolist()).to_4x4()
+    if placed.type != "CAMERA":                           # a camera's size is its ortho scale
+        matrix = matrix @ Matrix.Diagonal((scale, scale, scale, 1.0))
+    placed.matrix_world = matrix
+
+
 def _label_object(collection, text: str, location, size: float, azimuth: float = 0.0):
     curve = bpy.data.curves.new("FH Sheet Label", "FONT")
     curve.body = text
@@ -95,8 +122,11 @@ def render_sheet(context, obj, cells: list[Cell], out_path, cell_size=(220, 250)
     for other in scene.objects:
         other.hide_render = other not in visible
     focus = getattr(rig, "focus_vertices", None)        # a character: frame its head, not the whole body
-    world = to_world(obj, rig.rest_positions if focus is None else rig.rest_positions[focus])
-    low, high = world.min(axis=0), world.max(axis=0)
+    head_to_world, scale, turn = head_frame(obj, rig)
+    rest = np.asarray(rig.rest_positions if focus is None else rig.rest_positions[focus], np.float64)
+    world = to_world(obj, rest)
+    head = (world - head_to_world[:3, 3]) @ turn / scale     # laid out in head space (face -Y, top +Z)
+    low, high = head.min(axis=0), head.max(axis=0)
     height = float(high[2] - low[2])
     azimuth = math.radians(VIEWS[view])
     centre = (low + high) / 2
@@ -111,6 +141,10 @@ def render_sheet(context, obj, cells: list[Cell], out_path, cell_size=(220, 250)
     margin_below = 0.36 * height  # room for an open jaw and the label under the chin
     render.frame_camera(scene, visible, azimuth_deg=VIEWS[view], margin=1.08,
                            bounds=(low - np.array([0.0, 0.0, margin_below]), high))
+    for placed in (scene.camera, label):                 # head space -> where the head is in the scene
+        _into_world(placed, head_to_world, scale, turn)
+    scene.camera.data.ortho_scale *= scale
+    scene.camera.data.clip_end *= scale
     try:
         for index, (name, controls) in enumerate(cells):
             if progress:

@@ -29,3 +29,33 @@ def test_render_and_render_hand_write_their_sheets(installed, bpy_clean, tmp_pat
 def test_render_refuses_an_unknown_cell(bpy_clean, capsys, tmp_path):
     code = addon_module("operators.cli").main(["render", "--cells", "no_such_cell", "--out", str(tmp_path / "x.png")])
     assert code == 1 and "no cell named" in capsys.readouterr().err and not (tmp_path / "x.png").exists()
+
+
+def test_a_turned_and_scaled_head_is_seen_from_its_front(bpy_clean, tmp_path):
+    """A head whose object is turned (an OBJ import's 90 degrees about X and a quarter turn about Z) and
+    scaled to centimetres gets the same neutral and side cells as the upright head: the sheet's camera looks
+    along the head's own frame (before, it looked along world -Y: the review's sheets of fitted held-out
+    heads showed the chin or the crown)."""
+    import math
+
+    bpy = bpy_clean
+    sheet = addon_module("operators.face.sheet")
+    render = addon_module("operators.adapters.render")
+    assert bpy.ops.faces_hands.build_face_rig() == {"FINISHED"}
+    obj = bpy.context.active_object
+    cells = [("neutral", {})]
+    images = {}
+    for name, rotation, scale in (("upright", (0.0, 0.0, 0.0), 1.0),
+                                  ("turned", (math.pi / 2, 0.0, math.pi / 2), 100.0)):
+        obj.rotation_euler, obj.scale = rotation, (scale, scale, scale)
+        obj.location = (0.3 * scale, -2.0, 1.5)
+        bpy.context.view_layer.update()
+        for view in ("front", "side"):
+            path = tmp_path / f"{name}_{view}.png"
+            sheet.render_sheet(bpy.context, obj, cells, path, cell_size=(110, 125), columns=1, view=view)
+            images[name, view] = render.read_png(path)[:, :, :3]
+    for view in ("front", "side"):
+        upright, turned = images["upright", view], images["turned", view]
+        assert (upright < 0.9).mean() > 0.05                       # the head fills the cell
+        assert np.abs(upright - turned).mean() < 0.01, (view, np.abs(upright - turned).mean())
+    assert np.abs(images["upright", "front"] - images["upright", "side"]).mean() > 0.01
