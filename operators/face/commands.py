@@ -84,10 +84,28 @@ class Bake(_FaceCommand):
         return services.bake(bpy.context, obj, args.mode, args.preset, progress, args.animation)
 
 
+def _face_or_character(blend, rig_name=None, progress=None):
+    """The face rig of ``blend`` or, when it has none, its character (whose head the sheet frames)."""
+    if blend:
+        from ..adapters.blendfile import open_blend
+        from ..adapters.rig_store import find_rig, is_rig
+        open_blend(blend)
+        kind = services.KIND if any(is_rig(o, services.KIND) for o in bpy.data.objects) else "character"
+        try:
+            return find_rig(bpy.data.objects, rig_name, kind)
+        except UserError:
+            raise UserError("no Faces & Hands face rig or character in this file"
+                            + (f" named {rig_name!r}" if rig_name else "")) from None
+    return services.rig_object(None, rig_name, progress)
+
+
 class Render(_FaceCommand):
     NAME = "render"
-    HELP = "render a labelled contact sheet of a face rig (neutral, muscles, jaw, ARKit, visemes)"
+    HELP = "render a labelled contact sheet of a face rig or a character's head (neutral, muscles, jaw, ARKit, " \
+           "visemes)"
     OUTPUTS = (".png",)
+    BLEND_HELP = "a .blend with a face rig or a character (default: build the default head)"
+    open_rig = staticmethod(_face_or_character)
 
     @classmethod
     def add_options(cls, parser):

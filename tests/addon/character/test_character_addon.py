@@ -248,3 +248,18 @@ def test_a_takes_glb_from_the_still_export_and_the_engines_clip_is_blenders_expo
     blink.keyframe_insert("value", frame=5)
     keyed, _ = _glb(services._save_take(body, tmp_path / "keyed.glb", (job, engine_take)))
     assert len(keyed["animations"][0]["channels"]) > 3               # Blender's exporter took it
+
+
+def test_render_draws_a_sheet_of_the_characters_head(character, installed, tmp_path):
+    """``faces_hands render --blend`` on a saved character draws its head (it refused: "no Faces & Hands face
+    rig in this file"); the open jaw differs from the neutral cell."""
+    from conftest import run_fh
+    bpy, _ = character
+    blend, png = tmp_path / "character.blend", tmp_path / "sheet.png"
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend), copy=True)
+    result = run_fh(installed, "render", "--blend", blend, "--cells", "neutral,jawOpen", "--columns", "2",
+                    "--out", png)
+    assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
+    image = addon_module("operators.adapters.render").read_png(png)[:, :, :3]
+    neutral, open_jaw = image[:, :image.shape[1] // 2], image[:, image.shape[1] // 2:]
+    assert (neutral < 0.9).mean() > 0.05 and np.abs(neutral - open_jaw).mean() > 0.003
