@@ -166,10 +166,9 @@ def _bone_stage(canonical: np.ndarray, inputs: TemplateInputs, skin: SkinMesh, n
     if symmetric:
         _symmetrise_bones(bones)
     bone_part, mouth_region, lip_distance = attach_to_bones(skin, bones, node_mirror if symmetric else None)
+    _sagittal_tmj(bones)
     if symmetric:
         _symmetrise_tmj(bones)
-    else:
-        _sagittal_tmj(bones)
     return bones, bone_part, mouth_region, lip_distance, (node_mirror if symmetric else None)
 
 
@@ -274,18 +273,18 @@ def _symmetrise_bones(bones: BoneFit) -> None:
 
 
 def _symmetrise_tmj(bones: BoneFit) -> None:
-    """For a symmetric head the jaw hinges about the left-right axis in the mid-sagittal plane."""
+    """For a symmetric head the jaw's hinge (left-right, :func:`_sagittal_tmj`) lies in the mid-sagittal plane."""
     bones.tmj_pivot = bones.tmj_pivot * np.array([0.0, 1.0, 1.0])
-    bones.tmj_axis = np.array([1.0, 0.0, 0.0])
 
 
 def _sagittal_tmj(bones: BoneFit) -> None:
     """Any head opens its jaw in the mid-sagittal plane (3.1.1: the jaw's rotation about the condyles, plus
     their forward glide): the hinge axis runs left-right (head-space X, the canonical face's) through the
-    condyles' midpoint (the glide, computed from it, then has no sideways part). The condyles lie far behind the face landmarks
-    the skull is warped by, so their fitted positions amplify a head's asymmetry: a population head whose
-    skin is mirror-symmetric to 0.55 mm got condyles 6.6 mm apart in depth, a hinge yawed 3.8 degrees and a
-    2.2 mm sideways glide, and jawOpen moved one jaw angle 3.5 mm further than the other."""
+    condyles' midpoint (the glide, computed from it, then has no sideways part). The condyles lie far
+    behind the face landmarks the skull is warped by, so their fitted positions amplify a head's asymmetry:
+    a population head whose skin is mirror-symmetric to 0.55 mm got condyles 6.6 mm apart in depth, a hinge
+    yawed 3.8 degrees and a 2.2 mm sideways glide, and jawOpen moved one jaw angle 3.5 mm further than the
+    other."""
     bones.tmj_axis = np.array([1.0, 0.0, 0.0])
 
 
