@@ -119,7 +119,6 @@ def main() -> None:
     parser.add_argument("--every", type=int, default=3, help="measure every Nth motion frame (default 3)")
     parser.add_argument("--no-quality", action="store_true", help="only the speed")
     args = parser.parse_args()
-    kernel.set_interactive(True)          # as the live preview in Blender: the compiled kernel pays there
     compiled = kernel.substep_kernel() is not None
     started = time.perf_counter()
     rig = build_hand_rig(mesh=args.mesh)

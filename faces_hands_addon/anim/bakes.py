@@ -24,7 +24,6 @@ from typing import Mapping
 import numpy as np
 
 from ..core.errors import UserError
-from ..physics import kernel
 from . import baking, bake_inputs, weights
 from .take import Take
 
@@ -75,7 +74,6 @@ class CacheBake(_Steps):
                  targets: Mapping[str, Mapping[str, float]]):
         specs = rig.control_specs()
         table = bake_inputs.animated_table(take, specs, frames, fps, start_frame, MAX_CACHE_FRAMES)
-        kernel.expect_frames(len(table))
         table, self.drive = bake_inputs.cache_inputs(take, specs, targets, table, fps, start_frame)
         super().__init__(baking.animation_poses(rig, table, 1.0 / fps, drive=self.drive), len(table),
                          f"Baking {len(table)} frames")
@@ -100,7 +98,6 @@ class WeightsBake:
         self.count = len(targets) + (len(specs) if correctives else 0)
         self.total = self.count + len(self.table)
         self.label = f"Baking {len(self.table)} frames as weights of {self.count} targets"
-        kernel.expect_frames(len(self.table))
         shapes = baking.expression_shapes(rig, dict(targets), cache=cache)
         self.targets = itertools.chain(shapes, baking.basis_shapes(rig, cache=cache)) if correctives else shapes
         self.primary, self.shapes = len(targets), []

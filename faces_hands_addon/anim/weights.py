@@ -296,8 +296,7 @@ class _Stage:
         solved = np.zeros(len(rhs), bool)
         # numba here (not merely loaded by whatever ran before in this process): the compiled and the
         # scipy solvers agree to rounding only, so the choice may not depend on the process's history; and
-        # compiled standalone, so a fit does not load the substep kernel and turn the next line's small
-        # face network (the "auto" backend) onto it
+        # compiled standalone: a fit without physics (a retarget) does not pay for the substep kernel's load
         if kernel.numba_usable() and kernel.compiled(_sets_settled, standalone=True) is not None:
             low, high = self._sets
             hessian = np.ascontiguousarray(matrix.T @ matrix)

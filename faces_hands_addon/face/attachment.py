@@ -79,7 +79,7 @@ class AttachmentMap:
         """``target`` (N, 3) += :meth:`muscle_displacement` of the muscle points' ``displacement`` +
         :meth:`jaw_frame_correction` (in place): the pull of the muscles the nodes are attached to (Fig. 3.4).
         Once the kernel is loaded (the live preview), one compiled pass (:mod:`.attachment_kernel`)."""
-        if kernel.loaded() and (pull := kernel.compiled(attachment_kernel.add_muscle_pull)) is not None:
+        if kernel.available() and (pull := kernel.compiled(attachment_kernel.add_muscle_pull)) is not None:
             spread, tables = self.jaw_pull_tables(muscle_rest, muscle_carry)
             pull(spread.indptr, spread.indices, spread.data, np.ascontiguousarray(displacement, np.float64),
                  *tables, np.ascontiguousarray(jaw[:3, :3], np.float64), np.ascontiguousarray(jaw[:3, 3], np.float64),
@@ -113,7 +113,7 @@ class AttachmentMap:
     def carried(self, rest: np.ndarray, jaw: np.ndarray) -> np.ndarray:
         """Rest positions carried by the bones: the jaw pose ``jaw`` (4x4) moves each node by its weight.
         Once the kernel is loaded, one compiled pass (:func:`.attachment_kernel.carry_rest`)."""
-        if kernel.loaded() and (carry := kernel.compiled(attachment_kernel.carry_rest)) is not None:
+        if kernel.available() and (carry := kernel.compiled(attachment_kernel.carry_rest)) is not None:
             out = np.empty((len(rest), 3))
             carry(np.ascontiguousarray(rest, np.float64), np.ascontiguousarray(jaw[:3, :3], np.float64),
                   np.ascontiguousarray(jaw[:3, 3], np.float64), self.jaw_weight.astype(np.float64, copy=False), out)
@@ -132,7 +132,7 @@ class AttachmentMap:
     def posed_offsets(self, offsets: np.ndarray, jaw: np.ndarray) -> np.ndarray:
         """Anchor offsets turned with the jaw for the nodes it carries (more than half). Once the kernel is
         loaded, one compiled pass (:func:`.attachment_kernel.turn_offsets`)."""
-        if kernel.loaded() and (turn := kernel.compiled(attachment_kernel.turn_offsets)) is not None:
+        if kernel.available() and (turn := kernel.compiled(attachment_kernel.turn_offsets)) is not None:
             out = np.empty((len(offsets), 3))
             turn(np.ascontiguousarray(offsets, np.float64), np.ascontiguousarray(jaw[:3, :3], np.float64),
                  self.jaw_weight.astype(np.float64, copy=False), out)
@@ -169,7 +169,7 @@ class BoneSurface:
         if self._tree is None:
             self._tree = geometry.centroid_tree(self.vertices, self.faces)
         compiled = kernel.compiled(anchor_kernel.closest_on_candidates, anchor_kernel._ratio) \
-            if kernel.loaded() else None
+            if kernel.available() else None
         if compiled is None:
             point, face, bary, dist = geometry.closest_points(self.vertices, self.faces, points, tree=self._tree)
         else:                                      # the same answer, the candidates in one compiled pass

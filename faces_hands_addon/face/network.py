@@ -154,7 +154,7 @@ class SliverTies:
     def __call__(self, positions: np.ndarray, velocity: np.ndarray) -> None:
         """Place every apex on its edge (positions, velocities (3, N), in place); once the kernel is loaded,
         in the compiled loop of :mod:`.sliver_kernel` (this numpy code is the reference)."""
-        if self.batches and kernel.loaded() and (place := kernel.compiled(sliver_kernel.place_apices)) is not None:
+        if self.batches and kernel.available() and (place := kernel.compiled(sliver_kernel.place_apices)) is not None:
             place(positions, velocity, *self._packed, self.PASSES)
             return
         for _ in range(self.PASSES if self.batches else 0):
@@ -182,9 +182,8 @@ class FaceNetwork:
     slivers: SliverTies | None = None
 
     def set_backend(self, backend: str) -> None:
-        """"auto" (the default: the fused kernel where it pays, physics/kernel.py), "numba" (kernel and
-        compiled guards whenever numba is importable) or "numpy" (the reference path) for the integrator
-        and every guard."""
+        """"auto" (the default) or "numba" (the fused kernel and compiled guards wherever numba is usable,
+        physics/kernel.py) or "numpy" (the reference path) for the integrator and every guard."""
         if backend not in kernel.BACKENDS:
             raise UserError(f"unknown simulation backend {backend!r}; use one of {', '.join(kernel.BACKENDS)}")
         self.integrator.backend = backend

@@ -232,7 +232,6 @@ class FaceRig:
         self._sync_controls()
         if self._targets is not None:
             return self._targets
-        self._frame_backend()
         t, rest = self.template, self._rest
         jaw = self.jaw_transform()
         target = t.attachment.carried(rest, jaw)
@@ -256,16 +255,6 @@ class FaceRig:
         self._targets = target
         self._jaw_now = jaw
         return target
-
-    def _frame_backend(self) -> None:
-        """Load the compiled kernel now if this rig's frame will load it (the integrator's choice, or a fitted
-        head's skin guard), before the lids, muscles and pulls that use it once ``kernel.loaded()``: a
-        process's first frame then computes as its later ones do, and a settled shape's bytes do not depend
-        on what ran before it in the process (3.1.2: one simulation, whichever loop computes it)."""
-        face = self.face
-        face.integrator.uses_kernel()
-        for guard in (face.bone_guard, face.teeth_guard):
-            guard.uses_kernel()
 
     def _frame_targets(self):
         """``(anchor, mirror, driven)`` (3, N) arrays the integrator moves the attachments and kinematic
@@ -307,8 +296,7 @@ class FaceRig:
         frames = max(3, int(np.ceil(max_time / dt)))
         x = self.face.network.positions
         previous = x.copy()
-        self._frame_backend()
-        largest_move = kernel.compiled(kernel.largest_move) if kernel.loaded() else None
+        largest_move = kernel.compiled(kernel.largest_move) if kernel.available() else None
         if largest_move is None:
             moved = np.empty_like(x)
 

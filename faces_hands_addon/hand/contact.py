@@ -106,7 +106,7 @@ class FingerContact:
     def __init__(self, skeleton: Skeleton, pseudo: PseudoMuscles, distance: float | None = None, samples: int = 6):
         self.skeleton, self.pseudo = skeleton, pseudo
         self.enabled = True
-        #: "auto": the compiled sweep (:mod:`.contact_kernel`) once the physics kernel is loaded; "numpy": never
+        #: "auto": the compiled sweep (:mod:`.contact_kernel`) wherever numba is usable; "numpy": never
         self.backend = "auto"
         self.bones = [[skeleton.index[f"{f}-finger-phalanx-{p}"] for p in PARTS] for f in CONTACT_FINGERS]
         mcp = skeleton.position[[bones[0] for bones in self.bones]]
@@ -234,8 +234,8 @@ class FingerContact:
         return self.distance - np.maximum(short.max(axis=1), 0.0)
 
     def _compiled(self):
-        """``(contact_rows, resolve_sweeps)`` of :mod:`.contact_kernel` compiled, when the physics kernel is
-        loaded in this process (numba paid for already) and ``backend`` allows it; else ``None`` (numpy)."""
+        """``(contact_rows, resolve_sweeps)`` of :mod:`.contact_kernel` compiled, wherever numba is usable
+        and ``backend`` allows it; else ``None`` (numpy)."""
         return None if self.backend == "numpy" else compiled_sweeps()
 
     def _frozen_for(self, angles: np.ndarray) -> dict:

@@ -21,9 +21,9 @@ __all__ = ["contact_rows", "resolve_sweeps", "compiled_sweeps"]
 
 
 def compiled_sweeps():
-    """``(contact_rows, resolve_sweeps)`` compiled, once the physics kernel is loaded in this process (numba is
-    paid for already: the live preview, a long bake); ``None`` otherwise (the numpy path runs)."""
-    if not kernel.loaded():
+    """``(contact_rows, resolve_sweeps)`` compiled wherever the physics kernel is usable
+    (``kernel.available``); ``None`` otherwise (the numpy path runs)."""
+    if not kernel.available():
         return None
     rows = kernel.compiled(contact_rows, _pose_fingers, _shortfall)
     kernel.compiled(_turn, _solve_small)

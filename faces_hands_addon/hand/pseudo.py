@@ -99,7 +99,7 @@ class PseudoMuscles:
         self.capsule = np.array([capsule * (CAPSULE_ABDUCTION if d.kind == "abduction" else 1.0)
                                  for d in skeleton.dofs])
         self.inertia = ChainInertia(skeleton, inertia_masses, self.dynamic)
-        #: "auto": the compiled substeps (:mod:`.pseudo_kernel`) once the physics kernel is loaded; "numpy": never
+        #: "auto": the compiled substeps (:mod:`.pseudo_kernel`) wherever numba is usable; "numpy": never
         self.backend = "auto"
         self.inertia_dofs = self.inertia.dofs
         self.angles = np.zeros(count)

@@ -19,8 +19,8 @@ __all__ = ["joint_substeps", "compiled_substeps"]
 
 
 def compiled_substeps():
-    """:func:`joint_substeps` compiled once the physics kernel is loaded in this process; else ``None``."""
-    return kernel.compiled(joint_substeps) if kernel.loaded() else None
+    """:func:`joint_substeps` compiled wherever the physics kernel is usable (``kernel.available``); else ``None``."""
+    return kernel.compiled(joint_substeps) if kernel.available() else None
 
 
 def joint_substeps(q, w, lever, lever2, rest, low_length, high_length, active, passive, slope_active,

@@ -23,9 +23,7 @@ _NO_STILL = (np.zeros(0, np.bool_), np.zeros((3, 0)), np.zeros((3, 0)))   # no i
 
 def _compiled_guards(backend: str):
     """The compiled guard loops for ``backend`` (see the classes' ``backend``), or ``None``."""
-    if backend == "numba" or (backend == "auto" and kernel.loaded()):
-        return kernel.guard_kernels()
-    return None
+    return None if backend == "numpy" else kernel.guard_kernels()
 
 
 class BoneHalfSpaceGuard:
@@ -37,8 +35,7 @@ class BoneHalfSpaceGuard:
     along the bone since its plane was last chosen (incremental: a resting face costs nothing).
     """
 
-    #: "auto" (the compiled loop of .kernel once the network's integrator loaded it), "numba" (it whenever
-    #: numba is importable) or "numpy" (the reference path)
+    #: "auto" or "numba" (the compiled loop of .kernel wherever numba is usable) or "numpy" (the reference path)
     backend = "auto"
 
     def __init__(self, nodes: np.ndarray, point: np.ndarray, normal: np.ndarray, bone: np.ndarray,
@@ -313,14 +310,6 @@ class BoneHalfSpaceGuard:
         if self._last is not None and len(active):
             self._last[:, active] = local[:, active]
         self._pose(active)
-
-    def uses_kernel(self) -> bool:
-        """Will :meth:`refresh` run compiled code? A guard that keeps its nodes' own bones runs the compiled
-        pre-test :meth:`_may_have_moved`, which loads the kernel; asked before a frame's inputs are computed,
-        this loads it then (``integrator.LeapfrogIntegrator.uses_kernel``)."""
-        if self._surfaces and self._own is not None and self._last is not None:
-            return kernel.compiled(anchor_kernel.any_moved_on_own_bone) is not None
-        return _compiled_guards(self.backend) is not None
 
     def _may_have_moved(self, positions: np.ndarray) -> bool:
         """The compiled pre-test of :meth:`_refresh_own_bone`: False only when no node can have moved

@@ -19,9 +19,9 @@ equilibrium, reached more slowly), so every parameter value the UI allows gives 
 simulation at a bounded cost. A last check after every frame restores the previous state if anything
 became non-finite anyway.
 
-The substeps run in the fused numba kernel of :mod:`.kernel` when numba is importable and the network is
-large enough to pay for loading it (``backend`` ``"auto"``, the default; ``"numba"`` whatever the size); the
-numpy code here is the reference and the fallback (``backend = "numpy"``).
+The substeps run in the fused numba kernel of :mod:`.kernel` wherever numba is usable (``backend``
+``"auto"``, the default, the same choice in every process: :mod:`.kernel`'s docstring); the numpy code here
+is the reference and the fallback (``backend = "numpy"``).
 """
 from __future__ import annotations
 
@@ -134,8 +134,7 @@ class LeapfrogIntegrator:
         self._factor_cache = None
         self._spring_scratch = None          # the fused kernel's per-spring scratch (diff, scale)
         self._kernel_index = None            # the fused kernel's int32 spring/attachment indices, see _indices
-        #: "auto" (the fused kernel of .kernel for networks where it pays), "numba" (it whenever numba is
-        #: importable) or "numpy" (the reference path)
+        #: "auto" or "numba" (the fused kernel of .kernel wherever numba is usable) or "numpy" (the reference path)
         self.backend = "auto"
         self.refresh()
 
@@ -263,20 +262,9 @@ class LeapfrogIntegrator:
             self.started = False
         return substeps
 
-    def uses_kernel(self) -> bool:
-        """Will :meth:`advance` run the compiled kernel? Asked before a frame's inputs are computed, it loads
-        the kernel then, so the compiled helpers that follow ``kernel.loaded()`` (lids, muscles,
-        attachments) take the same path on a process's first frame as on every later one: a result does
-        not depend on what ran before it in the process."""
-        return self._kernel() is not None
-
     def _kernel(self):
         """The fused numba kernel (:mod:`.kernel`) if this integrator may use it, else ``None``."""
-        if self.backend == "numpy":
-            return None
-        if self.backend == "auto" and not kernel.pays_for(self.network.positions.shape[1]):
-            return None
-        return kernel.substep_kernel()
+        return None if self.backend == "numpy" else kernel.substep_kernel()
 
     def _advance_fused(self, compiled, dt: float, substeps: int, fast: bool, start_pull, delta_pull,
                        driven, start_driven, constraint, every: int) -> None:

@@ -17,15 +17,14 @@ a folder the kernel is compiled in memory on first use. ``FH_PHYSICS_KERNEL=nump
 path; numba missing or failing to import (e.g. Intel macOS, for which numba ships no wheels) selects it
 too, silently.
 
-Where it pays (``"auto"``, the default backend): importing numba and loading the cached kernel costs every
-process ~2 s (a short ``./fh speak`` line: 7.8 s against 5.7 s with numpy), which a small network never
-earns back (the default head's 74-expression bake saves 2.1 s of 6.0 s). At 2.9k nodes a
-frame costs 12.4 ms with numpy and 7.9 ms with the kernel, so it pays from ~450 frames (a 15-s take) on.
-The ``"auto"`` backend therefore uses the kernel when the network has at least :data:`AUTO_MIN_NODES`
-nodes, when nodes x the frames a bake announced (:func:`expect_frames`) reach :data:`AUTO_MIN_NODE_FRAMES`,
-in an interactive session (:func:`set_interactive`: the live preview's every tick gains, the load is paid
-once), or once the kernel is loaded anyway; ``FH_PHYSICS_KERNEL=numba`` asks for it always (or a caller
-sets the backend ``"numba"``). The guards use their compiled loops only once the kernel is loaded.
+One choice for every process (``"auto"``, the default backend): the kernel wherever numba is usable,
+whatever the network's size, the take's length or what ran before in the process. The two loops agree only
+to rounding, so a rule that chose by size, length or session (the rule before this one: numpy for small
+networks and short takes until something loaded the kernel) gave the same line two different files in one
+process, and a farm's bytes depended on which rows a worker had run first. Loading the cached kernel is paid
+once per process; on a short ``./fh speak`` line it costs no measurable time (the face-only head: 4.07 s
+with the old rule's numpy, 4.05 s with the kernel; the character: 6.9 s and 6.1 s). ``FH_PHYSICS_KERNEL=numpy``
+(or a caller's backend ``"numpy"``) keeps the reference path.
 """
 from __future__ import annotations
 
@@ -36,18 +35,13 @@ import time
 from pathlib import Path
 
 __all__ = ["set_cache_folder", "cache_folder", "available", "substep_kernel", "guard_kernels",
-           "compile_seconds", "ENV_VARIABLE", "AUTO_MIN_NODES", "AUTO_MIN_NODE_FRAMES", "pays_for", "loaded",
-           "BACKENDS", "expect_frames", "set_interactive", "compiled", "largest_move", "numba_usable"]
+           "compile_seconds", "ENV_VARIABLE", "loaded", "BACKENDS", "compiled", "largest_move", "numba_usable"]
 
-#: environment variable: "numpy" forces the reference path, "numba" the kernel for every network; unset:
-#: the kernel for networks of at least AUTO_MIN_NODES nodes
+#: environment variable: "numpy" forces the reference path; unset (or "numba"): the kernel wherever numba is usable
 ENV_VARIABLE = "FH_PHYSICS_KERNEL"
-#: smallest network the "auto" backend compiles for, and the smallest nodes x announced frames (docstring)
-AUTO_MIN_NODES = 5000
-AUTO_MIN_NODE_FRAMES = 1_500_000
+#: "auto" and "numba": the kernel wherever numba is usable (one choice per process, module docstring)
 BACKENDS = ("auto", "numba", "numpy")
 
-_HINTS = {"frames": 0, "interactive": False}
 _LOADING = threading.Lock()
 _COMPILED: dict = {}
 _STATE = {"folder": None, "kernel": None, "half_space": None, "sphere": None, "still_planes": None, "tried": False,
@@ -320,32 +314,16 @@ def largest_move(x, previous):  # pragma: no cover - compiled
     return largest
 
 
-def expect_frames(frames: int) -> None:
-    """A bake of ``frames`` frames is about to run (the ``"auto"`` backend weighs it, module docstring)."""
-    _HINTS["frames"] = max(0, int(frames))
-
-
-def set_interactive(interactive: bool) -> None:
-    """An interactive session (Blender with its UI) or not (``blender -b``, the command line)."""
-    _HINTS["interactive"] = bool(interactive)
-
-
-def pays_for(nodes: int) -> bool:
-    """Should the ``"auto"`` backend use the kernel for a network of ``nodes`` nodes?"""
-    choice = os.environ.get(ENV_VARIABLE, "").lower()
-    if choice == "numpy":
-        return False
-    return (choice == "numba" or loaded() or _HINTS["interactive"] or nodes >= AUTO_MIN_NODES
-            or nodes * _HINTS["frames"] >= AUTO_MIN_NODE_FRAMES)
-
-
 def loaded() -> bool:
-    """Has this process already built (or loaded) the kernel?"""
+    """Has this process already built (or loaded) the kernel? (A question for tests and benchmarks: a
+    computation asks :func:`available`, which loads it, so its path never depends on what ran before.)"""
     return _STATE["kernel"] is not None
 
 
 def available() -> bool:
-    """Is the compiled kernel usable here (numba importable and not switched off)?"""
+    """Is the compiled kernel usable here (numba importable and not switched off)? Loads it on the first
+    question: every compiled helper (lids, muscles, attachments, guards, hand joints) asks this, so each
+    takes the same path on a process's first frame as on its later ones."""
     return substep_kernel() is not None
 
 
@@ -426,7 +404,7 @@ def compiled(function, *helpers, standalone: bool = False):
     per process, or ``None`` where the numpy path must run (numba missing or switched off). For other
     engine loops that earn a compiled version (e.g. the weight fit of :mod:`..anim.weights`). ``helpers``:
     module-level functions ``function`` calls, compiled first and called compiled. ``standalone``: without
-    loading the substep kernel (a loop whose use must not change what :func:`loaded` says afterwards)."""
+    loading the substep kernel (a loop that needs no physics, e.g. the weight fit: it spares the load)."""
     if standalone:
         if not numba_usable():
             return None

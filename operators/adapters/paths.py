@@ -83,7 +83,6 @@ def configure_presets(package: str | None) -> None:
     _CACHE_FOLDER[0] = folder
     # numba's compiled kernel lives beside the shape cache, never in the installed extension's folder
     kernel.set_cache_folder(folder.parent / "numba" if folder is not None else None)
-    kernel.set_interactive(package is not None and not bpy.app.background)
 
 
 def shape_cache() -> ShapeCache:

@@ -202,9 +202,8 @@ def test_the_weight_fit_does_not_depend_on_what_loaded_the_kernel_before(monkeyp
 
 @pytest.mark.skipif(importlib.util.find_spec("numba") is None, reason="numba is not importable here")
 def test_a_weight_fit_leaves_the_substep_kernel_unloaded():
-    """The fit compiles its own loop without loading the substep kernel: a jobs line on the face-only head
-    (a small network, the "auto" backend's numpy path) must not turn the next line's settle onto the kernel
-    (the same line twice in one process gave two GLBs)."""
+    """The fit compiles its own loop without loading the substep kernel: a retarget, which fits weights and
+    simulates nothing, does not pay for the kernel's load."""
     import os
     import subprocess
     import sys
