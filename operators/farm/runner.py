@@ -92,7 +92,8 @@ class RowRunner:
         shutil.rmtree(stage, ignore_errors=True)
         stage.mkdir(parents=True)
         try:
-            run_line(_speech_spec(row, stage), self.rig_path, self.fps, _quiet, engine_rig=self.engine_rig)
+            with one_blas_thread():     # also limits a BLAS library loaded since the runner started (scipy's)
+                run_line(_speech_spec(row, stage), self.rig_path, self.fps, _quiet, engine_rig=self.engine_rig)
             raise_pending()
             staged = {name: stage / name for name in row.outputs()}
             commit_row(self.out_dir, row, key, inputs, staged, self.staging, self.version)
