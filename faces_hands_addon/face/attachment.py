@@ -78,8 +78,8 @@ class AttachmentMap:
                         jaw: np.ndarray, target: np.ndarray) -> None:
         """``target`` (N, 3) += :meth:`muscle_displacement` of the muscle points' ``displacement`` +
         :meth:`jaw_frame_correction` (in place): the pull of the muscles the nodes are attached to (Fig. 3.4).
-        Once the kernel is loaded (the live preview), one compiled pass (:mod:`.attachment_kernel`)."""
-        if kernel.available() and (pull := kernel.compiled(attachment_kernel.add_muscle_pull)) is not None:
+        Wherever the kernel is usable, one compiled pass (:mod:`.attachment_kernel`)."""
+        if (pull := kernel.compiled(attachment_kernel.add_muscle_pull)) is not None:
             spread, tables = self.jaw_pull_tables(muscle_rest, muscle_carry)
             pull(spread.indptr, spread.indices, spread.data, np.ascontiguousarray(displacement, np.float64),
                  *tables, np.ascontiguousarray(jaw[:3, :3], np.float64), np.ascontiguousarray(jaw[:3, 3], np.float64),
@@ -112,8 +112,8 @@ class AttachmentMap:
 
     def carried(self, rest: np.ndarray, jaw: np.ndarray) -> np.ndarray:
         """Rest positions carried by the bones: the jaw pose ``jaw`` (4x4) moves each node by its weight.
-        Once the kernel is loaded, one compiled pass (:func:`.attachment_kernel.carry_rest`)."""
-        if kernel.available() and (carry := kernel.compiled(attachment_kernel.carry_rest)) is not None:
+        Wherever the kernel is usable, one compiled pass (:func:`.attachment_kernel.carry_rest`)."""
+        if (carry := kernel.compiled(attachment_kernel.carry_rest)) is not None:
             out = np.empty((len(rest), 3))
             carry(np.ascontiguousarray(rest, np.float64), np.ascontiguousarray(jaw[:3, :3], np.float64),
                   np.ascontiguousarray(jaw[:3, 3], np.float64), self.jaw_weight.astype(np.float64, copy=False), out)
@@ -130,9 +130,9 @@ class AttachmentMap:
         return np.where((depth > 1e-4)[:, None] & (self.bone_depth > 0)[:, None], offset, inward)
 
     def posed_offsets(self, offsets: np.ndarray, jaw: np.ndarray) -> np.ndarray:
-        """Anchor offsets turned with the jaw for the nodes it carries (more than half). Once the kernel is
-        loaded, one compiled pass (:func:`.attachment_kernel.turn_offsets`)."""
-        if kernel.available() and (turn := kernel.compiled(attachment_kernel.turn_offsets)) is not None:
+        """Anchor offsets turned with the jaw for the nodes it carries (more than half). Wherever the kernel
+        is usable, one compiled pass (:func:`.attachment_kernel.turn_offsets`)."""
+        if (turn := kernel.compiled(attachment_kernel.turn_offsets)) is not None:
             out = np.empty((len(offsets), 3))
             turn(np.ascontiguousarray(offsets, np.float64), np.ascontiguousarray(jaw[:3, :3], np.float64),
                  self.jaw_weight.astype(np.float64, copy=False), out)
@@ -168,8 +168,7 @@ class BoneSurface:
         on the first query and kept (the skin guard asks every frame)."""
         if self._tree is None:
             self._tree = geometry.centroid_tree(self.vertices, self.faces)
-        compiled = kernel.compiled(anchor_kernel.closest_on_candidates, anchor_kernel._ratio) \
-            if kernel.available() else None
+        compiled = kernel.compiled(anchor_kernel.closest_on_candidates, anchor_kernel._ratio)
         if compiled is None:
             point, face, bary, dist = geometry.closest_points(self.vertices, self.faces, points, tree=self._tree)
         else:                                      # the same answer, the candidates in one compiled pass

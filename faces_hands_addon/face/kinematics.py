@@ -254,7 +254,7 @@ class LidRig:
         """:meth:`rotate` for the lid's own nodes only: their rest positions (len(index), 3) in, rotated out
         (what a frame needs; the other nodes do not move)."""
         index = self.index
-        if kernel.available() and (rotate := kernel.compiled(lid_kernel.rotate_lid_nodes)) is not None:
+        if (rotate := kernel.compiled(lid_kernel.rotate_lid_nodes)) is not None:
             out = np.empty_like(lid_rest, np.float64)
             rotate(np.ascontiguousarray(lid_rest, np.float64), self.centre, self.theta_u[index], self.theta_l[index],
                    self.open_share[index], self.weight[index], self.is_upper[index],

@@ -337,7 +337,7 @@ class MuscleSystem:
         once where they enter it (``anim.layers.mix``, ``FaceRig.set_controls``)."""
         contraction = np.asarray(contraction, np.float64)
         protrusion = float(protrusion)
-        if kernel.available() and (compiled := kernel.compiled(muscle_kernel.deform_points, *muscle_kernel.HELPERS)):
+        if (compiled := kernel.compiled(muscle_kernel.deform_points, *muscle_kernel.HELPERS)) is not None:
             surface, carried, thickness = np.empty_like(self.rest), np.empty_like(self.rest), np.empty(len(self.rest))
             compiled(contraction, protrusion, np.ascontiguousarray(jaw[:3, :3], np.float64),
                      np.ascontiguousarray(jaw[:3, 3], np.float64), self.rest, self.normal,

@@ -152,9 +152,9 @@ class SliverTies:
         return cls(out)
 
     def __call__(self, positions: np.ndarray, velocity: np.ndarray) -> None:
-        """Place every apex on its edge (positions, velocities (3, N), in place); once the kernel is loaded,
+        """Place every apex on its edge (positions, velocities (3, N), in place); wherever the kernel is usable,
         in the compiled loop of :mod:`.sliver_kernel` (this numpy code is the reference)."""
-        if self.batches and kernel.available() and (place := kernel.compiled(sliver_kernel.place_apices)) is not None:
+        if self.batches and (place := kernel.compiled(sliver_kernel.place_apices)) is not None:
             place(positions, velocity, *self._packed, self.PASSES)
             return
         for _ in range(self.PASSES if self.batches else 0):

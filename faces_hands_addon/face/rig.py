@@ -296,7 +296,7 @@ class FaceRig:
         frames = max(3, int(np.ceil(max_time / dt)))
         x = self.face.network.positions
         previous = x.copy()
-        largest_move = kernel.compiled(kernel.largest_move) if kernel.available() else None
+        largest_move = kernel.compiled(kernel.largest_move)
         if largest_move is None:
             moved = np.empty_like(x)
 

@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""One sweep of the finger contact of :mod:`.contact` as a single loop, compiled by numba where the physics
-kernel is loaded (:func:`..physics.kernel.compiled`); :meth:`.contact.FingerContact._rows` in numpy stays the
+"""One sweep of the finger contact of :mod:`.contact` as a single loop, compiled by numba wherever the physics
+kernel is usable (:func:`..physics.kernel.compiled`); :meth:`.contact.FingerContact._rows` in numpy stays the
 reference and the fallback (``tests/engine/hand/test_hand_kernels.py`` requires agreement to 1e-12).
 
 Beyond the thesis (its hand has no collisions, 6.2.5). A sweep poses the samples of the four fingers from
@@ -21,11 +21,11 @@ __all__ = ["contact_rows", "resolve_sweeps", "compiled_sweeps"]
 
 
 def compiled_sweeps():
-    """``(contact_rows, resolve_sweeps)`` compiled wherever the physics kernel is usable
-    (``kernel.available``); ``None`` otherwise (the numpy path runs)."""
-    if not kernel.available():
-        return None
+    """``(contact_rows, resolve_sweeps)`` compiled wherever the physics kernel is usable; ``None`` otherwise
+    (the numpy path runs)."""
     rows = kernel.compiled(contact_rows, _pose_fingers, _shortfall)
+    if rows is None:
+        return None
     kernel.compiled(_turn, _solve_small)
     return rows, kernel.compiled(resolve_sweeps, contact_rows, _turn)
 

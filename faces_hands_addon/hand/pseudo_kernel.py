@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """The pseudo muscles' joint substeps (thesis 6.2.2, Eqs. 6.1-6.3', 6.7, 6.9) as one loop, compiled by numba
-where the physics kernel is loaded (:func:`..physics.kernel.compiled`); the numpy substeps of
+wherever the physics kernel is usable (:func:`..physics.kernel.compiled`); the numpy substeps of
 :meth:`.pseudo.PseudoMuscles.step` stay the reference and the fallback
 (``tests/engine/hand/test_hand_kernels.py`` requires agreement to 1e-12 rad).
 
@@ -19,8 +19,8 @@ __all__ = ["joint_substeps", "compiled_substeps"]
 
 
 def compiled_substeps():
-    """:func:`joint_substeps` compiled wherever the physics kernel is usable (``kernel.available``); else ``None``."""
-    return kernel.compiled(joint_substeps) if kernel.available() else None
+    """:func:`joint_substeps` compiled wherever the physics kernel is usable; else ``None``."""
+    return kernel.compiled(joint_substeps)
 
 
 def joint_substeps(q, w, lever, lever2, rest, low_length, high_length, active, passive, slope_active,

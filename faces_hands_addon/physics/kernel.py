@@ -316,14 +316,15 @@ def largest_move(x, previous):  # pragma: no cover - compiled
 
 def loaded() -> bool:
     """Has this process already built (or loaded) the kernel? (A question for tests and benchmarks: a
-    computation asks :func:`available`, which loads it, so its path never depends on what ran before.)"""
+    computation asks :func:`compiled` or :func:`substep_kernel`, which load it, so its path never depends on
+    what ran before.)"""
     return _STATE["kernel"] is not None
 
 
 def available() -> bool:
     """Is the compiled kernel usable here (numba importable and not switched off)? Loads it on the first
-    question: every compiled helper (lids, muscles, attachments, guards, hand joints) asks this, so each
-    takes the same path on a process's first frame as on its later ones."""
+    question, as :func:`compiled` does for every compiled helper (lids, muscles, attachments, guards, hand
+    joints): each takes the same path on a process's first frame as on its later ones."""
     return substep_kernel() is not None
 
 
@@ -386,8 +387,8 @@ def _numba_in_cache_folder():
 
 
 def numba_usable() -> bool:
-    """Is numba importable here and not switched off? Asked without loading the substep kernel, so the
-    answer depends on the environment alone and asking it changes no later choice (:func:`loaded`)."""
+    """Is numba importable here and not switched off? Asked without loading the substep kernel (the weight
+    fit of a retarget needs numba, not the kernel); the answer depends on the environment alone."""
     if os.environ.get(ENV_VARIABLE, "").lower() == "numpy":
         return False
     if "numba" not in _STATE:
